@@ -1,0 +1,63 @@
+"""The simulated data sets SD1–SD4 (paper Section 3, Tables 2–3).
+
+Table 2: u_a = 220 V step, t from 0 to 0.05 s with Δt = 1e-4 s, i_a(0) = 0, ω(0) = 0.
+The file holds the initial instant t = 0 and the 500 computed instants t = 1e-4 … 0.05 s
+(501 rows), integrated with RK4 (eq. 14–23) as in the paper. The objective sums over all
+rows; the t = 0 residual is zero by construction (the initial state is the first sample)."""
+
+from pathlib import Path
+
+import numpy as np
+
+from .params import PARAM_NAMES
+from .recording import Recording, load_csv
+from .reference import simulate_numpy
+
+# Table 3. SD2: larger inertia; SD3: smaller La (faster electrical time constant); SD4: smaller J.
+SD_PARAMS: dict[str, dict[str, float]] = {
+    "SD1": dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8),
+    "SD2": dict(Ra=42.5, La=0.08, cm=0.4781, J=6e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8),
+    "SD3": dict(Ra=42.5, La=0.008, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8),
+    "SD4": dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-6, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8),
+}
+SD_VOLTAGE = 220.0
+SD_DT = 1e-4
+SD_STEPS = 500
+
+DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+
+
+def true_params(name: str) -> dict[str, float]:
+    """Table 3 parameters of SD1–SD4."""
+    key = name.upper()
+    if key not in SD_PARAMS:
+        raise ValueError(f"unknown data set {name!r}; embedded ones are {sorted(SD_PARAMS)}")
+    return dict(SD_PARAMS[key])
+
+
+def generate_sd(name: str) -> Recording:
+    """Simulate SD1–SD4 from Tables 2–3 with the NumPy RK4 reference."""
+    p = true_params(name)
+    t = np.arange(SD_STEPS + 1) * SD_DT
+    u = np.full_like(t, SD_VOLTAGE)
+    x = np.array([p[n] for n in PARAM_NAMES])
+    traj = simulate_numpy(x, t, u, i0=0.0, w0=0.0, integrator="rk4")
+    meta = {
+        "source": "Jesenik et al. 2020, Tables 2-3 (simulated data, RK4)",
+        "true_params": p,
+        "generator": "dcjax.datasets.generate_sd (NumPy RK4, eq. 14-23)",
+        "u_a": SD_VOLTAGE,
+        "dt": SD_DT,
+        "computed_instants": SD_STEPS,
+    }
+    return Recording(t=t, u_a=u, i_a=traj[:, 0], omega=traj[:, 1], name=name.upper(), metadata=meta)
+
+
+def load(name: str) -> Recording:
+    """An embedded data set by name (`"SD1"` … `"SD4"`): `data/NAME.csv` of this checkout,
+    or, where the package is installed without the data folder, regenerated (the two are
+    byte-identical, see tests/test_datasets.py)."""
+    key = name.upper()
+    true_params(key)
+    path = DATA_DIR / f"{key}.csv"
+    return load_csv(path) if path.is_file() else generate_sd(key)

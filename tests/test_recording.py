@@ -1,0 +1,131 @@
+"""Recording validation, CSV round trip, switch-on trimming, bounds and the SD data files."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dcjax import TABLE4, TABLE8, Bounds, Recording, bounds_preset, load_csv, make_problem, save_csv, trim_switch_on
+from dcjax import datasets
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _rec(**kw):
+    n = 5
+    base = dict(t=np.arange(n) * 0.1, u_a=np.full(n, 10.0), i_a=np.linspace(0, 1, n), omega=np.linspace(0, 2, n))
+    base.update(kw)
+    return Recording(**base)
+
+
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        (dict(t=np.arange(4) * 0.1), "different lengths"),
+        (dict(i_a=np.array([0, 1, np.nan, 1, 1.0])), "NaN/inf"),
+        (dict(omega=np.array([0, 1, np.inf, 1, 1.0])), "NaN/inf"),
+        (dict(t=np.array([0, 0.1, 0.1, 0.2, 0.3])), "strictly increasing"),
+        (dict(t=np.array([0, 0.2, 0.1, 0.3, 0.4])), "strictly increasing"),
+        (dict(i_a=np.zeros(5)), "all zero"),
+        (dict(omega=np.zeros(5)), "all zero"),
+        (dict(i_a_limit=-1.0), "current limit"),
+        (dict(i_a_limit=0.0), "current limit"),
+        (dict(u_a=np.ones((5, 2))), "one-dimensional"),
+    ],
+)
+def test_bad_recordings(kw, match):
+    with pytest.raises(ValueError, match=match):
+        _rec(**kw)
+
+
+def test_too_few_samples():
+    with pytest.raises(ValueError, match="at least 3"):
+        Recording(t=[0, 1.0], u_a=[1, 1.0], i_a=[0, 1.0], omega=[0, 1.0])
+
+
+def test_csv_roundtrip(tmp_path):
+    rec = _rec(i_a_limit=3.5, name="x")
+    save_csv(rec, tmp_path / "x.csv", metadata={"note": "hi"})
+    back = load_csv(tmp_path / "x.csv")
+    for c in ("t", "u_a", "i_a", "omega"):
+        np.testing.assert_array_equal(getattr(back, c), getattr(rec, c))
+    assert back.i_a_limit == 3.5 and back.name == "x" and back.metadata["note"] == "hi"
+
+
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("a,b,c,d\n1,2,3,4\n", "header"),
+        ("t,u_a,i_a,omega\n0,1,1,1\n0.1,1,1\n0.2,1,1,1\n", "ragged"),
+        ("t,u_a,i_a,omega\n0,1,1,1\n0.1,1,x,1\n0.2,1,1,1\n", "non-numeric"),
+        ("t,u_a,i_a,omega\n0,1,1,1\n0.1,1,nan,1\n0.2,1,1,1\n", "NaN"),
+        ("t,u_a,i_a,omega\n", "no data"),
+        ("", "empty"),
+    ],
+)
+def test_bad_csv(tmp_path, text, match):
+    f = tmp_path / "bad.csv"
+    f.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        load_csv(f)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        load_csv(tmp_path / "nope.csv")
+
+
+def test_trim_switch_on():
+    t = np.arange(10) * 0.1
+    u = np.r_[np.zeros(4), np.full(6, 100.0)]
+    i = np.r_[np.zeros(5), np.ones(5)]
+    w = np.r_[np.zeros(5), np.arange(1, 6.0)]
+    trimmed = trim_switch_on(Recording(t=t, u_a=u, i_a=i, omega=w))
+    assert len(trimmed) == 7 and trimmed.t[0] == 0.0 and trimmed.u_a[0] == 0.0 and trimmed.u_a[1] == 100.0
+    np.testing.assert_allclose(trimmed.t, np.arange(7) * 0.1)
+
+
+def test_bounds():
+    with pytest.raises(ValueError, match="lower bound above upper"):
+        Bounds(np.ones(7), np.zeros(7))
+    with pytest.raises(ValueError, match="7 values"):
+        Bounds(np.zeros(6), np.ones(6))
+    with pytest.raises(ValueError, match="finite"):
+        Bounds(np.zeros(7), np.full(7, np.inf))
+    with pytest.raises(ValueError, match="unknown bounds preset"):
+        bounds_preset("table5")
+    assert bounds_preset("TABLE8") is TABLE8
+    assert float(TABLE4.upper[6]) == 1e-6 and float(TABLE8.upper[5]) == 9.55e-2
+
+
+def test_make_problem_validation(sd1):
+    with pytest.raises(ValueError, match="integrator"):
+        make_problem(sd1, integrator="rk45")
+    with pytest.raises(ValueError, match="nd"):
+        make_problem(sd1, nd=0)
+    with pytest.raises(ValueError, match="weights"):
+        make_problem(sd1, weights=(0.0, 0.0))
+    with pytest.raises(ValueError, match="weights"):
+        make_problem(sd1, weights=(-1.0, 1.0))
+    with pytest.raises(ValueError, match="current limit"):
+        make_problem(sd1, i_limit=-2.0)
+
+
+def test_sd_files_are_regenerated_byte_identically():
+    r = subprocess.run([sys.executable, str(ROOT / "data" / "generate_sd.py"), "--check"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_sd_sets_follow_tables_2_and_3():
+    for name in ("SD1", "SD2", "SD3", "SD4"):
+        rec = datasets.load(name)
+        assert len(rec) == 501 and rec.t[0] == 0.0 and np.isclose(rec.t[-1], 0.05)
+        assert np.all(rec.u_a == 220.0) and rec.i_a[0] == 0.0 and rec.omega[0] == 0.0
+        assert rec.metadata["true_params"] == datasets.true_params(name)
+        gen = datasets.generate_sd(name)
+        np.testing.assert_array_equal(gen.i_a, rec.i_a)
+    assert datasets.true_params("SD4")["J"] == 2e-6 and datasets.true_params("SD3")["La"] == 0.008
+    with pytest.raises(ValueError, match="unknown data set"):
+        datasets.load("SD9")

@@ -1,0 +1,221 @@
+"""Simulator: order of convergence, exact linear solution, ND, current limit, transforms."""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.linalg
+
+import dcjax
+from dcjax import Params, Recording, make_problem, objective, simulate
+from dcjax.integrate import rk4_step
+from dcjax.model import Coefficients, derivatives, vector_field
+from dcjax.reference import simulate_numpy
+
+SD1 = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
+
+
+def _varying_voltage_recording(n=41, dt=1e-3):
+    """A coarse grid with a non-constant voltage (ramp + ripple); i, w are placeholders."""
+    t = np.arange(n) * dt
+    u = 150.0 + 70.0 * t / t[-1] + 20.0 * np.sin(300.0 * t)
+    return Recording(t=t, u_a=u, i_a=np.ones(n), omega=np.ones(n))
+
+
+def _diffrax_solution(p: Params, rec: Recording):
+    """Tsit5 at tight tolerance on the same ODE with the same piecewise-linear voltage."""
+    t = jnp.asarray(rec.t)
+    u = jnp.asarray(rec.u_a)
+
+    def f(s, y, args):
+        return jnp.stack(derivatives(p, jnp.interp(s, t, u), y[0], y[1]))
+
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(f),
+        diffrax.Tsit5(),
+        t0=t[0],
+        t1=t[-1],
+        dt0=1e-6,
+        y0=jnp.zeros(2),
+        saveat=diffrax.SaveAt(ts=t),
+        stepsize_controller=diffrax.ClipStepSizeController(
+            diffrax.PIDController(rtol=1e-13, atol=1e-13), jump_ts=t
+        ),
+        max_steps=200_000,
+    )
+    return np.asarray(sol.ys)
+
+
+def test_float64(sd1, sd1_true):
+    prob = make_problem(sd1)
+    assert simulate(sd1_true, prob).dtype == jnp.float64
+    assert objective(sd1_true, prob).dtype == jnp.float64
+    assert Params.from_array(np.ones(7, np.float32)).Ra.dtype == jnp.float64
+
+
+@pytest.mark.parametrize("integrator,order", [("euler", 1.0), ("rk4", 4.0)])
+def test_order_of_convergence(integrator, order):
+    """Log-log slope of the error against the sub-step (diffrax's test_ode_order style)."""
+    rec = _varying_voltage_recording()
+    p = Params.from_dict(SD1)
+    exact = _diffrax_solution(p, rec)
+    scale = np.max(np.abs(exact), axis=0)
+    nds = [4, 8, 16, 32] if integrator == "rk4" else [16, 32, 64, 128]
+    errors = []
+    for nd in nds:
+        prob = make_problem(rec, integrator=integrator, nd=nd, i0=0.0, w0=0.0)
+        traj = np.asarray(simulate(p, prob))
+        errors.append(np.max(np.abs(traj - exact) / scale))
+    slope = np.polyfit(np.log(1.0 / np.asarray(nds)), np.log(errors), 1)[0]
+    print(integrator, "errors", errors, "slope", slope)
+    assert abs(slope - order) < 0.15 * order, (errors, slope)
+
+
+def test_linear_case_matches_matrix_exponential(sd1):
+    """Tla = Tlb = Tlc = 0 and constant u: x(t) = e^{At} x0 + A^{-1}(e^{At} - I) b u."""
+    p = dict(SD1, Tla=0.0, Tlb=0.0, Tlc=0.0)
+    A = np.array([[-p["Ra"] / p["La"], -p["cm"] / p["La"]], [p["cm"] / p["J"], 0.0]])
+    b = np.array([1.0 / p["La"], 0.0])
+    u = 220.0
+    exact = np.stack([np.linalg.solve(A, (scipy.linalg.expm(A * t) - np.eye(2)) @ b * u) for t in sd1.t])
+    prob = make_problem(sd1, nd=8)
+    traj = np.asarray(simulate(Params.from_dict(p), prob))
+    rel = np.max(np.abs(traj - exact), axis=0) / np.max(np.abs(exact), axis=0)
+    assert np.all(rel < 1e-10), rel
+    # Euler is first order: clearly worse on the same grid.
+    traj_em = np.asarray(simulate(Params.from_dict(p), make_problem(sd1, integrator="euler")))
+    assert np.max(np.abs(traj_em - exact)[:, 1]) / np.max(np.abs(exact[:, 1])) > 1e-4
+
+
+@pytest.mark.parametrize("integrator", ["euler", "rk4"])
+@pytest.mark.parametrize("nd", [1, 3])
+def test_matches_numpy_reference(integrator, nd):
+    rec = _varying_voltage_recording()
+    x = np.array(list(SD1.values()))
+    ref = simulate_numpy(x, rec.t, rec.u_a, integrator=integrator, nd=nd, i_limit=2.0)
+    prob = make_problem(rec, integrator=integrator, nd=nd, i0=0.0, w0=0.0, i_limit=2.0)
+    out = np.asarray(simulate(Params.from_array(x), prob))
+    np.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-12)
+
+
+def test_nd1_is_the_plain_integrator(sd1, sd1_true):
+    """ND = 1 equals stepping rk4_step once per sample interval (bit for bit)."""
+    k = Coefficients.from_params(sd1_true)
+    i, w = jnp.float64(0.0), jnp.float64(0.0)
+    rows = [(i, w)]
+    step = jax.jit(rk4_step)
+    for n in range(1, len(sd1)):
+        h = sd1.t[n] - sd1.t[n - 1]
+        i, w = step(k, i, w, h, sd1.u_a[n - 1], 0.5 * (sd1.u_a[n - 1] + sd1.u_a[n]), sd1.u_a[n])
+        rows.append((i, w))
+    plain = np.asarray(rows)
+    out = np.asarray(simulate(sd1_true, make_problem(sd1, nd=1)))
+    np.testing.assert_allclose(out, plain, rtol=1e-14, atol=1e-13)
+
+
+@pytest.mark.parametrize("integrator", ["euler", "rk4"])
+def test_nd_approaches_fine_solution(sd1, sd1_true, integrator):
+    """Constant voltage: the error at the samples against ND = 256 shrinks as ND grows."""
+    fine = np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=256)))
+    errs = [
+        np.max(np.abs(np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=nd))) - fine))
+        for nd in (1, 2, 5, 10)
+    ]
+    assert all(a > b for a, b in zip(errs, errs[1:])), errs
+
+
+def test_current_limit(sd1, sd1_true):
+    peak = float(np.max(np.abs(sd1.i_a)))
+    limited = np.asarray(simulate(sd1_true, make_problem(sd1, i_limit=0.5 * peak)))
+    assert np.max(np.abs(limited[:, 0])) <= 0.5 * peak
+    assert np.isclose(np.max(limited[:, 0]), 0.5 * peak)  # it binds
+    free = np.asarray(simulate(sd1_true, make_problem(sd1)))
+    above = np.asarray(simulate(sd1_true, make_problem(sd1, i_limit=2.0 * peak)))
+    np.testing.assert_array_equal(free, above)
+
+
+def test_current_limit_every_substep():
+    """With ND > 1 the clamp acts inside the interval too (paper Fig. 17)."""
+    rec = _varying_voltage_recording()
+    p = Params.from_dict(SD1)
+    x = p.to_array()
+    for nd in (1, 4):
+        prob = make_problem(rec, nd=nd, i0=0.0, w0=0.0, i_limit=1.0)
+        ref = simulate_numpy(np.asarray(x), rec.t, rec.u_a, nd=nd, i_limit=1.0)
+        np.testing.assert_allclose(np.asarray(simulate(p, prob)), ref, rtol=1e-12, atol=1e-12)
+        assert np.max(np.abs(ref[:, 0])) <= 1.0
+
+
+def test_population_vmap_loop_jit(sd1):
+    prob = make_problem(sd1)
+    X = dcjax.TABLE4.to_physical(jax.random.uniform(jax.random.PRNGKey(3), (6, 7)))
+    batched = simulate(Params.from_array(X), prob)
+    assert batched.shape == (6, len(sd1), 2)
+    vmapped = jax.vmap(lambda x: simulate(Params.from_array(x), prob))(X)
+    looped = jnp.stack([simulate(Params.from_array(x), prob) for x in X])
+    jitted = jax.jit(lambda X: simulate(Params.from_array(X), prob))(X)
+    np.testing.assert_allclose(batched, looped, rtol=1e-13, equal_nan=True)
+    np.testing.assert_allclose(vmapped, looped, rtol=1e-13, equal_nan=True)
+    np.testing.assert_allclose(jitted, looped, rtol=1e-13, equal_nan=True)
+    of_b = objective(Params.from_array(X), prob)
+    of_l = jnp.stack([objective(Params.from_array(x), prob) for x in X])
+    np.testing.assert_allclose(of_b, of_l, rtol=1e-13)
+
+
+def test_objective_at_truth_and_sensitivity(sd1, sd1_true):
+    prob = make_problem(sd1)
+    of0 = float(objective(sd1_true, prob))
+    assert of0 < 1e-25
+    x = np.asarray(sd1_true.to_array())
+    for k, name in enumerate(dcjax.PARAM_NAMES):
+        for s in (0.99, 1.01):
+            xk = x.copy()
+            xk[k] *= s
+            of = float(objective(Params.from_array(xk), prob))
+            assert of > 1e3 * max(of0, 1e-30) and of > 1e-16, (name, s, of)
+
+
+def test_objective_weights(sd1, sd1_true):
+    x = np.asarray(sd1_true.to_array()) * np.array([1.02, 1, 1, 1, 1, 1, 1])
+    p = Params.from_array(x)
+    full = float(objective(p, make_problem(sd1)))
+    only_i = float(objective(p, make_problem(sd1, weights=(1.0, 0.0))))
+    only_w = float(objective(p, make_problem(sd1, weights=(0.0, 1.0))))
+    half = float(objective(p, make_problem(sd1, weights=(0.5, 0.5))))
+    np.testing.assert_allclose(full, only_i + only_w, rtol=1e-12)
+    np.testing.assert_allclose(half, 0.5 * full, rtol=1e-12)
+
+
+def test_grad_matches_finite_differences(sd1, sd1_true):
+    prob = make_problem(sd1)
+    x0 = np.asarray(sd1_true.to_array()) * np.array([1.01, 0.99, 1.01, 1.02, 0.98, 1.05, 0.95])
+    f = lambda x: objective(Params.from_array(x), prob)  # noqa: E731
+    g = np.asarray(jax.grad(f)(jnp.asarray(x0)))
+    jac = np.asarray(jax.jacfwd(f)(jnp.asarray(x0)))
+    assert np.all(np.isfinite(g))
+    np.testing.assert_allclose(g, jac, rtol=1e-10)
+    for k in range(7):
+        h = 1e-6 * abs(x0[k])
+        e = np.zeros(7)
+        e[k] = h
+        fd = (float(f(x0 + e)) - float(f(x0 - e))) / (2 * h)
+        np.testing.assert_allclose(g[k], fd, rtol=1e-4, atol=1e-12 * abs(fd) + 1e-30)
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("field", ["La", "J"])
+def test_degenerate_parameters_give_inf(sd1, sd1_true, field):
+    p = Params.from_dict({**sd1_true.to_dict(), field: 0.0})
+    assert float(objective(p, make_problem(sd1))) == np.inf
+    huge = Params.from_dict({**sd1_true.to_dict(), "La": 1e-300})
+    of = objective(huge, make_problem(sd1))
+    assert not np.isnan(of) and of > 0
+
+
+def test_vector_field_matches_eq_8_9():
+    p = Params.from_dict(SD1)
+    k = Coefficients.from_params(p)
+    a = vector_field(k, 200.0, 1.5, 120.0)
+    b = derivatives(p, 200.0, 1.5, 120.0)
+    np.testing.assert_allclose(a, b, rtol=1e-13)

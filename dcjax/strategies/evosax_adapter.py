@@ -1,0 +1,79 @@
+"""Run any evosax algorithm (`CMA_ES`, `PSO`, `DifferentialEvolution`, ...) on the same problem
+through the same `run`/`identify` machinery.
+
+The algorithm searches the unit cube; candidates are clipped into it before evaluation and the
+clipped point is what is told back, so every returned parameter respects the bounds. One
+generation costs `pop_size` FEs (the initial population of a population-based algorithm too)."""
+
+import equinox as eqx
+import evosax.algorithms as ea
+import jax
+import jax.numpy as jnp
+
+from .base import State, Strategy, evaluate, uniform_population
+
+
+def evosax_names() -> list[str]:
+    return sorted(ea.algorithms)
+
+
+class Evosax(Strategy):
+    """`Evosax("CMA_ES")`, `Evosax("PSO")`, `Evosax("DifferentialEvolution", params={...})`.
+    `params` overrides fields of the algorithm's default params; `std_init` (distribution-based
+    only, unit-cube scale) defaults to 0.3."""
+
+    name: str = eqx.field(static=True, default="CMA_ES")
+    params: dict = eqx.field(static=True, default_factory=dict)
+
+    def __check_init__(self):
+        if self.name not in ea.algorithms:
+            raise ValueError(f"unknown evosax algorithm {self.name!r}; choose from {evosax_names()}")
+
+    def _algo(self, dim: int):
+        return ea.algorithms[self.name](population_size=self.pop_size, solution=jnp.zeros(dim))
+
+    def _params(self, algo):
+        p = algo.default_params
+        fields = dict(self.params)
+        if self_is_pop(algo):
+            fields.pop("std_init", None)
+        elif hasattr(p, "std_init"):
+            fields.setdefault("std_init", 0.3)
+        return p.replace(**fields) if fields else p
+
+    @property
+    def cost(self) -> int:
+        return self.pop_size
+
+    def max_iterations(self, budget: int) -> int:
+        return max(0, budget // self.pop_size)
+
+    def init(self, key, fn, budget, dim=7) -> State:
+        algo = self._algo(dim)
+        params = self._params(algo)
+        k1, k2 = jax.random.split(key)
+        if self_is_pop(algo):
+            pop = uniform_population(k1, self.pop_size, dim)
+            fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
+            es = algo.init(k2, pop, fit, params)
+            best = jnp.argmin(fit)
+            return State(pop, fit, pop[best], fit[best], fes, aux=es)
+        es = algo.init(k2, jnp.full(dim, 0.5), params)
+        pop = jnp.full((self.pop_size, dim), 0.5)
+        return State(pop, jnp.full(self.pop_size, jnp.inf), pop[0], jnp.asarray(jnp.inf), jnp.asarray(0), aux=es)
+
+    def step(self, key, state, fn, budget) -> State:
+        algo = self._algo(state.pop.shape[1])
+        params = self._params(algo)
+        ka, kt = jax.random.split(key)
+        x, es = algo.ask(ka, state.aux, params)
+        x = jnp.clip(x, 0.0, 1.0)
+        fit, fes = evaluate(fn, x, state.fes, budget)
+        es, _ = algo.tell(kt, x, fit, es, params)
+        return State(x, fit, state.best_x, state.best_f, fes, aux=es)
+
+
+def self_is_pop(algo) -> bool:
+    from evosax.algorithms.population_based.base import PopulationBasedAlgorithm
+
+    return isinstance(algo, PopulationBasedAlgorithm)

@@ -134,7 +134,7 @@ class RunOutput(eqx.Module):
 
 def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: int = 7) -> RunOutput:
     """The whole run as one `lax.while_loop`: init, then steps while budget is left."""
-    t_max = strategy.max_iterations(budget)
+    t_max = max(1, strategy.max_iterations(budget))
     k_init, k_run = jax.random.split(key)
     state = with_best(strategy.init(k_init, fn, budget, dim))
     history = jnp.full((t_max,), jnp.nan)

@@ -1,0 +1,113 @@
+"""`dcjax fit DATA.csv`: identify the seven parameters of a recording from the command line."""
+
+import argparse
+import sys
+from pathlib import Path
+
+from .params import PARAM_NAMES, PARAM_UNITS
+
+
+def _floats(text: str, n: int, what: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"{what} must be {n} comma-separated numbers, got {text!r}") from None
+    if len(values) != n:
+        raise ValueError(f"{what} must be {n} comma-separated numbers, got {len(values)}")
+    return values
+
+
+def _parser() -> argparse.ArgumentParser:
+    from .strategies import METHODS
+
+    p = argparse.ArgumentParser(prog="dcjax", description="DC motor and drive parameter identification.")
+    sub = p.add_subparsers(dest="command", required=True)
+    f = sub.add_parser("fit", help="identify Ra, La, cm, J, Tla, Tlb, Tlc from a t,u_a,i_a,omega CSV")
+    f.add_argument("data", help="CSV file (t,u_a,i_a,omega) or an embedded data set name (SD1..SD4)")
+    f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
+    f.add_argument("--integrator", default="rk4", choices=["euler", "rk4"])
+    f.add_argument("--nd", type=int, default=1, help="sub-steps per sample interval (eq. 28)")
+    f.add_argument("--runs", type=int, default=50)
+    f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--weights", default="1,1", help="w1,w2 of eq. 27 (default 1,1 = eq. 24)")
+    f.add_argument("--bounds", default=None, help="table4 or table8 (default: table4, or the sidecar's 'bounds')")
+    f.add_argument("--lower", default=None, help="7 comma-separated lower bounds")
+    f.add_argument("--upper", default=None, help="7 comma-separated upper bounds")
+    f.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
+    f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
+    f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
+    return p
+
+
+def _load(data: str):
+    from . import datasets
+    from .recording import load_csv
+
+    if not Path(data).exists() and data.upper() in datasets.SD_PARAMS:
+        return datasets.load(data)
+    return load_csv(data)
+
+
+def fit(args) -> int:
+    import numpy as np
+
+    from .bounds import Bounds, bounds_preset
+    from .identify import identify
+
+    rec = _load(args.data)
+    weights = tuple(_floats(args.weights, 2, "--weights"))
+    if (args.lower is None) != (args.upper is None):
+        raise ValueError("--lower and --upper must be given together")
+    if args.lower is not None:
+        if args.bounds is not None:
+            raise ValueError("give either --bounds or --lower/--upper, not both")
+        bounds = Bounds(_floats(args.lower, 7, "--lower"), _floats(args.upper, 7, "--upper"))
+    else:
+        bounds = bounds_preset(args.bounds or rec.metadata.get("bounds", "table4"))
+    result = identify(
+        rec,
+        method=args.method,
+        integrator=args.integrator,
+        nd=args.nd,
+        weights=weights,
+        bounds=bounds,
+        runs=args.runs,
+        budget=args.budget,
+        seed=args.seed,
+        polish=args.polish,
+        i_limit=args.i_limit,
+    )
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    result.to_json(out / "result.json")
+    result.plot(out / "fit.png")
+    truth = rec.metadata.get("true_params")
+    print(f"{rec.name}: {args.method}, {args.integrator}, ND={args.nd}, {args.runs} runs x {args.budget} FEs, seed {args.seed}")
+    header = f"{'param':>6} {'unit':>7} {'identified':>22}" + (f" {'true':>14} {'rel. error':>11}" if truth else "")
+    print(header)
+    for name in PARAM_NAMES:
+        v = result.params[name]
+        line = f"{name:>6} {PARAM_UNITS[name]:>7} {v:>22.15g}"
+        if truth:
+            t = truth[name]
+            line += f" {t:>14.6g} {abs(v - t) / abs(t) if t else abs(v):>11.2e}"
+        print(line)
+    s = result.stats
+    print(f"OF best {s['best']:.4e}  worst {s['worst']:.4e}  mean {s['mean']:.4e}  std {s['std']:.4e}")
+    print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
+    print(f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return fit(args)
+    except ValueError as e:
+        print(f"dcjax: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,226 @@
+"""`identify`: independent evolutionary runs on one recording, batched into one compiled call,
+with an optional Levenberg–Marquardt polish, and the result object (paper Section 3.1, Tables
+5–6: best B, worst W, mean M and standard deviation SD over runs)."""
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+from .bounds import TABLE4, Bounds, bounds_preset
+from .objectives import objective
+from .params import PARAM_NAMES, Params
+from .problem import make_problem
+from .recording import Recording
+from .strategies import Strategy, make_strategy, run
+
+
+@dataclasses.dataclass
+class IdentificationResult:
+    """Best parameters over all runs, per-run results and their statistics."""
+
+    params: dict[str, float]
+    of: float
+    run_of: np.ndarray  # (R,)
+    run_params: np.ndarray  # (R, 7), physical units
+    fes: np.ndarray  # (R,)
+    iterations: np.ndarray  # (R,)
+    history: np.ndarray  # (R, T) best OF after each iteration (NaN past a run's end)
+    settings: dict
+    timing: dict
+    polish: dict | None = None
+    recording: Recording | None = dataclasses.field(default=None, repr=False)
+
+    @property
+    def stats(self) -> dict[str, float]:
+        """B, W, M, SD of the per-run best OF (Table 5; SD is the population std, ddof = 0)."""
+        f = self.run_of
+        return {"best": float(f.min()), "worst": float(f.max()), "mean": float(f.mean()), "std": float(f.std())}
+
+    @property
+    def mean_params(self) -> dict[str, float]:
+        """Mean of each parameter over runs (Table 6)."""
+        return dict(zip(PARAM_NAMES, map(float, self.run_params.mean(axis=0))))
+
+    def to_dict(self) -> dict:
+        return {
+            "params": self.params,
+            "of": self.of,
+            "runs": [
+                {"of": float(o), "params": dict(zip(PARAM_NAMES, map(float, p))), "fes": int(n), "iterations": int(it)}
+                for o, p, n, it in zip(self.run_of, self.run_params, self.fes, self.iterations)
+            ],
+            "stats": self.stats,
+            "mean_params": self.mean_params,
+            "polish": self.polish,
+            "settings": self.settings,
+            "timing": self.timing,
+        }
+
+    def to_json(self, path: str | Path | None = None) -> str:
+        text = json.dumps(self.to_dict(), indent=2)
+        if path is not None:
+            Path(path).write_text(text + "\n")
+        return text
+
+    def simulate(self, recording: Recording | None = None) -> np.ndarray:
+        """(N, 2) current and speed of the best parameters on `recording` (default: the fitted one)."""
+        from .integrate import simulate
+
+        rec = recording or self.recording
+        s = self.settings
+        prob = make_problem(rec, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]), i_limit=s["i_limit"])
+        return np.asarray(simulate(Params.from_dict(self.params), prob))
+
+    def plot(self, path: str | Path | None = None, true_params: dict | None = None):
+        """Measured vs simulated current and speed (paper Figs. 8–11) and convergence."""
+        import matplotlib
+
+        if path is not None:
+            matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        rec = self.recording
+        sim = self.simulate()
+        fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+        ax[0].plot(rec.t, rec.i_a, "k.", ms=3, label="measured")
+        ax[0].plot(rec.t, sim[:, 0], "r-", lw=1, label="simulated")
+        ax[0].set(xlabel="t (s)", ylabel="i_a (A)", title=f"{rec.name}: current")
+        ax[1].plot(rec.t, rec.omega, "k.", ms=3, label="measured")
+        ax[1].plot(rec.t, sim[:, 1], "r-", lw=1, label="simulated")
+        ax[1].set(xlabel="t (s)", ylabel="ω (1/s)", title="speed")
+        for h in self.history:
+            ax[2].semilogy(np.arange(1, h.size + 1), h, lw=0.7)
+        ax[2].set(xlabel="iteration", ylabel="best OF", title=f"convergence ({len(self.history)} runs)")
+        for a in ax[:2]:
+            a.legend()
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=120)
+            plt.close(fig)
+        return fig
+
+
+def _run_keys(seed: int, runs: int):
+    """Key of run r = fold_in(PRNGKey(seed), r). With several devices the runs are padded to a
+    multiple of the device count and sharded along the run axis (`NamedSharding`); the padding
+    runs are dropped afterwards, so results do not depend on the device count."""
+    devices = jax.devices()
+    n_dev = len(devices) if runs > 1 else 1
+    padded = -(-runs // n_dev) * n_dev
+    keys = jax.vmap(lambda r: jax.random.fold_in(jax.random.PRNGKey(seed), r))(jnp.arange(padded))
+    if n_dev > 1:
+        mesh = Mesh(np.array(devices), ("runs",))
+        keys = jax.device_put(keys, NamedSharding(mesh, PartitionSpec("runs")))
+    return keys, n_dev
+
+
+def _resolve_bounds(bounds) -> Bounds:
+    if bounds is None:
+        return TABLE4
+    if isinstance(bounds, Bounds):
+        return bounds
+    if isinstance(bounds, str):
+        return bounds_preset(bounds)
+    lo, hi = bounds
+    return Bounds(lo, hi)
+
+
+def identify(
+    recording: Recording,
+    method: str | Strategy = "de-rand-1-exp",
+    integrator: str = "rk4",
+    nd: int = 1,
+    weights: tuple[float, float] = (1.0, 1.0),
+    bounds: Bounds | str | tuple | None = None,
+    runs: int = 50,
+    budget: int = 140_000,
+    seed: int = 0,
+    polish: bool = False,
+    pop_size: int = 70,
+    i_limit: float | None = None,
+    strategy_options: dict | None = None,
+) -> IdentificationResult:
+    """Identify `Ra, La, cm, J, Tla, Tlb, Tlc` from `recording`.
+
+    `runs` independent runs of `method` (paper defaults: NP = 70, 140,000 FEs) are `vmap`ped into
+    one compiled call; run r uses `jax.random.fold_in(PRNGKey(seed), r)`, so a run does not depend
+    on how many others are made. `bounds`: a `Bounds`, `"table4"` (default) / `"table8"`, or a
+    `(lower, upper)` pair. `polish=True` runs Levenberg–Marquardt from every run's best."""
+    if not isinstance(recording, Recording):
+        raise ValueError(f"recording must be a dcjax.Recording, got {type(recording).__name__}")
+    for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    if budget < pop_size:
+        raise ValueError(f"budget ({budget}) must be at least one population ({pop_size})")
+    if not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"seed must be an integer, got {seed!r}")
+    b = _resolve_bounds(bounds)
+    strategy = make_strategy(method, pop_size=pop_size, **(strategy_options or {}))
+    problem = make_problem(recording, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit)
+
+    def one_run(key):
+        fn = lambda z: objective(Params.from_array(b.to_physical(z)), problem)  # noqa: E731
+        return run(strategy, key, fn, budget)
+
+    keys, n_dev = _run_keys(seed, runs)
+    batched = eqx.filter_jit(jax.vmap(one_run))
+    t0 = time.perf_counter()
+    compiled = batched.lower(keys).compile()
+    t1 = time.perf_counter()
+    out = jax.block_until_ready(compiled(keys))
+    t2 = time.perf_counter()
+    out = jax.tree.map(lambda a: a[:runs], out)
+    run_x = np.asarray(b.to_physical(out.best_x))
+    run_of = np.asarray(out.best_f)
+    polish_info = None
+    if polish:
+        from .polish import polish_batch
+
+        t3 = time.perf_counter()
+        pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), problem, b))
+        polish_info = {
+            "of_before": np.asarray(pol.of_before).tolist(),
+            "of_after": np.asarray(pol.of_after).tolist(),
+            "steps": np.asarray(pol.steps).tolist(),
+            "time_s": time.perf_counter() - t3,
+        }
+        run_x = np.asarray(pol.x)
+        run_of = np.asarray(pol.of_after)
+    best = int(np.argmin(run_of))
+    name = method if isinstance(method, str) else type(method).__name__
+    settings = {
+        "recording": recording.name,
+        "method": name,
+        "integrator": integrator,
+        "nd": nd,
+        "weights": list(map(float, weights)),
+        "bounds": {"lower": np.asarray(b.lower).tolist(), "upper": np.asarray(b.upper).tolist()},
+        "runs": runs,
+        "budget": budget,
+        "seed": seed,
+        "pop_size": pop_size,
+        "polish": polish,
+        "i_limit": problem.i_limit if problem.i_limit is None else float(problem.i_limit),
+        "strategy": repr(strategy),
+    }
+    return IdentificationResult(
+        params=dict(zip(PARAM_NAMES, map(float, run_x[best]))),
+        of=float(run_of[best]),
+        run_of=run_of,
+        run_params=run_x,
+        fes=np.asarray(out.fes),
+        iterations=np.asarray(out.iterations),
+        history=np.asarray(out.history),
+        settings=settings,
+        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": n_dev},
+        polish=polish_info,
+        recording=recording,
+    )

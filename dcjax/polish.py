@@ -1,0 +1,66 @@
+"""Levenberg–Marquardt polish (optimistix) of an evolutionary result on the residual vector of
+eq. 24/27, with the bounds kept by a reparametrization."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from jaxtyping import Array, Float
+
+from .bounds import Bounds
+from .objectives import objective, residuals
+from .params import Params
+from .problem import Problem
+
+
+class PolishResult(eqx.Module):
+    x: Float[Array, " 7"]
+    of_before: Float[Array, ""]
+    of_after: Float[Array, ""]
+    steps: Array
+
+
+def _to_free(z, eps):
+    """Unit-cube point -> unbounded variable, z = (sin(y) + 1) / 2 inverted (kept off the edge)."""
+    return jnp.arcsin(2.0 * jnp.clip(z, eps, 1.0 - eps) - 1.0)
+
+
+def _to_unit(y):
+    """z = (sin(y) + 1) / 2 lies in [0, 1] for every y, so the bounds always hold."""
+    return 0.5 * (jnp.sin(y) + 1.0)
+
+
+def polish(
+    x: Float[Array, " 7"],
+    problem: Problem,
+    bounds: Bounds,
+    rtol: float = 1e-12,
+    atol: float = 1e-14,
+    max_steps: int = 200,
+) -> PolishResult:
+    """Minimize sum(r(x)^2) (= OF) with `optx.LevenbergMarquardt` from `x` (physical units).
+
+    Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
+    (relative) of a bound is moved that far inside. The result is only accepted when its OF is
+    not larger than the start's; returns arrays only (no `optx.Solution`), so it vmaps."""
+    eps = 1e-12
+    z0 = bounds.to_unit(x)
+
+    def fn(y, _):
+        return residuals(Params.from_array(bounds.to_physical(_to_unit(y))), problem)
+
+    y0 = _to_free(z0, eps)
+    sol = optx.least_squares(
+        fn, optx.LevenbergMarquardt(rtol=rtol, atol=atol), y0, max_steps=max_steps, throw=False
+    )
+    x_new = bounds.to_physical(_to_unit(sol.value))
+    of0 = objective(Params.from_array(x), problem)
+    of1 = objective(Params.from_array(x_new), problem)
+    better = of1 <= of0
+    return PolishResult(
+        jnp.where(better, x_new, x), of0, jnp.where(better, of1, of0), sol.stats["num_steps"]
+    )
+
+
+polish_jit = eqx.filter_jit(polish)
+polish_batch = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None)))

@@ -1,0 +1,171 @@
+"""Search strategies: improvement, FE accounting, bounds, non-finite handling, jit/vmap."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from dcjax import TABLE4, Params, make_problem, objective
+from dcjax.strategies import DEBest1Bin, Evosax, make_strategy, run
+from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate
+from dcjax.strategies.de import binomial_crossover, exponential_crossover
+
+METHODS = ["ga", "de-rand-1-exp", "de-best-1-bin", "tlbo", "abc"]
+TARGET = jnp.array([0.3, 0.7, 0.5, 0.2, 0.9, 0.4, 0.6])
+
+
+def sphere(z):
+    return jnp.sum((z - TARGET) ** 2, axis=-1)
+
+
+def _run(method, fn, budget, seed=0, **kw):
+    s = make_strategy(method, **kw)
+    return jax.jit(lambda k: run(s, k, fn, budget))(jax.random.PRNGKey(seed))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_improves_on_convex_function(method):
+    out = _run(method, sphere, 7000)
+    init_best = float(_run(method, sphere, 70).best_f)
+    assert float(out.best_f) < 1e-3 * init_best, (method, float(out.best_f), init_best)
+    h = np.asarray(out.history)[: int(out.iterations)]
+    assert np.all(np.diff(h) <= 0), "best-so-far must never get worse"
+
+
+@pytest.fixture(scope="module")
+def sd1_fn(sd1):
+    prob = make_problem(sd1)
+    return lambda z: objective(Params.from_array(TABLE4.to_physical(z)), prob)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_improves_on_sd1(method, sd1_fn):
+    init_best = float(_run(method, sd1_fn, 70).best_f)
+    out = _run(method, sd1_fn, 7000)
+    assert float(out.best_f) < 0.5 * init_best
+    x = np.asarray(out.best_x)
+    assert np.all((x >= 0) & (x <= 1))
+
+
+@pytest.mark.parametrize("budget", [140_000, 10_001])
+def test_fe_accounting(budget):
+    out = {m: _run(m, sphere, budget) for m in METHODS}
+    for m in METHODS:
+        assert int(out[m].fes) <= budget
+    # TLBO: 2 x NP x iterations after the initial population.
+    if budget == 140_000:
+        assert int(out["tlbo"].fes) == budget and int(out["tlbo"].iterations) == (budget - 70) // 140 + 1
+        assert int(out["de-rand-1-exp"].iterations) == 1999 and int(out["ga"].iterations) == 1999
+    # DE, TLBO and ABC stop exactly at the budget; GA only runs whole generations.
+    for m in ("de-rand-1-exp", "de-best-1-bin", "tlbo", "abc"):
+        assert int(out[m].fes) == budget, m
+    assert budget - 70 < int(out["ga"].fes) <= budget
+
+
+def test_abc_counts_scouts():
+    """Every candidate fails (non-finite), so after `limit` failures a scout flies each
+    iteration and costs one FE: fewer iterations than (budget - SN) / 70."""
+    failing = lambda z: jnp.full(z.shape[0], jnp.nan)  # noqa: E731
+    out = _run("abc", failing, 140_000)
+    assert int(out.fes) == 140_000
+    assert int(out.iterations) < (140_000 - 35) // 70
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_non_finite_never_selected(method):
+    """NaN where z0 < 0.5 and inf where z1 < 0.3: the best is always in the finite region."""
+
+    def fn(z):
+        f = sphere(z)
+        f = jnp.where(z[:, 0] < 0.5, jnp.nan, f)
+        return jnp.where(z[:, 1] < 0.3, jnp.inf, f)
+
+    out = _run(method, fn, 3500)
+    x = np.asarray(out.best_x)
+    assert np.isfinite(float(out.best_f)) and x[0] >= 0.5 and x[1] >= 0.3
+
+
+@pytest.mark.parametrize("method", ["de-rand-1-exp", "abc"])
+def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):
+    s = make_strategy(method)
+    keys = jax.random.split(jax.random.PRNGKey(7), 3)
+    f = lambda k: run(s, k, sd1_fn, 1400)  # noqa: E731
+    batched = jax.jit(jax.vmap(f))(keys)
+    for r in range(3):
+        single = jax.jit(f)(keys[r])
+        np.testing.assert_allclose(batched.best_f[r], single.best_f, rtol=1e-12)
+        np.testing.assert_allclose(batched.best_x[r], single.best_x, rtol=1e-12)
+        assert int(batched.fes[r]) == int(single.fes)
+
+
+def test_distinct_indices():
+    n = 70
+    idx = distinct_indices(jax.random.PRNGKey(0), n, jnp.arange(n), 3)
+    all_ = np.concatenate([np.arange(n)[:, None], np.asarray(idx)], axis=1)
+    assert all(len(set(row)) == 4 for row in all_)
+    assert idx.min() >= 0 and idx.max() < n
+    many = np.asarray(distinct_indices(jax.random.PRNGKey(1), 5, jnp.zeros(20000, int), 1))[:, 0]
+    counts = np.bincount(many, minlength=5)
+    assert counts[0] == 0 and np.all(np.abs(counts[1:] / 20000 - 0.25) < 0.02)
+
+
+def test_crossovers():
+    p, d = 2000, 7
+    target, mutant = jnp.zeros((p, d)), jnp.ones((p, d))
+    exp = np.asarray(exponential_crossover(jax.random.PRNGKey(0), target, mutant, 0.8))
+    assert np.all(exp.sum(1) >= 1)
+    for row in exp:  # one contiguous cyclic block of mutant genes
+        assert np.sum(np.abs(np.diff(np.r_[row, row[0]]))) <= 2
+    # mean block length (1 - CR^D) / (1 - CR)
+    np.testing.assert_allclose(exp.sum(1).mean(), (1 - 0.8**7) / 0.2, rtol=0.05)
+    binm = np.asarray(binomial_crossover(jax.random.PRNGKey(1), target, mutant, 0.8))
+    assert np.all(binm.sum(1) >= 1)
+    np.testing.assert_allclose(binm.mean(), 0.8 + 0.2 / 7, rtol=0.03)
+
+
+def test_bound_rules():
+    z = jnp.array([[-0.5, 0.5, 1.5]])
+    parent = jnp.array([[0.2, 0.5, 0.8]])
+    key = jax.random.PRNGKey(0)
+    r = np.asarray(apply_bounds(key, z, "redraw"))
+    assert np.all((r >= 0) & (r <= 1)) and r[0, 1] == 0.5
+    np.testing.assert_array_equal(apply_bounds(key, z, "clip"), [[0.0, 0.5, 1.0]])
+    np.testing.assert_allclose(apply_bounds(key, z, "midpoint", parent), [[0.1, 0.5, 0.9]])
+    with pytest.raises(ValueError, match="bounds rule"):
+        apply_bounds(key, z, "wrap")
+
+
+def test_evaluate_respects_budget():
+    f, fes = evaluate(sphere, jnp.full((10, 7), 0.5), jnp.asarray(95), 100)
+    assert int(fes) == 100 and np.all(np.isinf(np.asarray(f)[5:])) and np.all(np.isfinite(np.asarray(f)[:5]))
+
+
+@pytest.mark.parametrize("name", ["CMA_ES", "PSO", "DifferentialEvolution"])
+def test_evosax_adapter(name):
+    out = _run(name, sphere, 7000)
+    assert float(out.best_f) < 1e-2 and int(out.fes) <= 7000
+    x = np.asarray(out.best_x)
+    assert np.all((x >= 0) & (x <= 1))
+
+
+def test_evosax_de_cross_checks_de_best_1_bin():
+    """evosax's DifferentialEvolution with elitism is DE/best/1/bin; with F = 0.6, CR = 0.8 both
+    implementations reach the sphere's optimum to a similar accuracy (median of 4 seeds)."""
+    ev = Evosax(name="DifferentialEvolution", params=dict(elitism=True, crossover_rate=0.8, differential_weight=0.6,
+                                                          differential_weight_min=0.6, differential_weight_max=0.6))
+    ours = DEBest1Bin()
+    med = {}
+    for label, s in (("evosax", ev), ("dcjax", ours)):
+        f = jax.jit(jax.vmap(lambda k: run(s, k, sphere, 14_000)))
+        med[label] = float(np.median(np.asarray(f(jax.random.split(jax.random.PRNGKey(0), 4)).best_f)))
+    assert med["evosax"] < 1e-12 and med["dcjax"] < 1e-12, med
+    assert 1e-4 < med["dcjax"] / med["evosax"] < 1e4, med
+
+
+def test_bad_strategy_options():
+    with pytest.raises(ValueError, match="unknown method"):
+        make_strategy("simplex")
+    with pytest.raises(ValueError, match="bounds_rule"):
+        make_strategy("de-rand-1-exp", bounds_rule="bounce")
+    with pytest.raises(ValueError, match="unknown evosax"):
+        Evosax(name="NoSuchES")

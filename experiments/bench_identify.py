@@ -1,0 +1,129 @@
+"""Benchmark (issue 3, paper Table 19): run times of the evolutionary methods on SD1 with RK4,
+NP = 70, 140,000 FEs, and scipy's differential_evolution on the same objective in NumPy.
+
+    .venv/bin/python experiments/bench_identify.py            # everything (~4 min on 2 cores)
+    .venv/bin/python experiments/bench_identify.py --skip-scipy
+
+Each section runs in a fresh subprocess with the XLA CPU device count it states, because the
+device count is fixed when JAX starts: one device is fastest for a single run, two devices
+(one per core, dcjax's default) for batched runs."""
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import time
+
+METHODS = ["ga", "de-rand-1-exp", "de-best-1-bin", "tlbo", "abc"]
+
+
+def _single(method: str, repeats: int = 3) -> dict:
+    import jax
+
+    from dcjax import TABLE4, Params, datasets, make_problem, objective
+    from dcjax.strategies import make_strategy, run
+
+    prob = make_problem(datasets.load("SD1"))
+    fn = lambda z: objective(Params.from_array(TABLE4.to_physical(z)), prob)  # noqa: E731
+    s = make_strategy(method)
+    f = jax.jit(lambda k: run(s, k, fn, 140_000))
+    t0 = time.perf_counter()
+    c = f.lower(jax.random.PRNGKey(0)).compile()
+    compile_s = time.perf_counter() - t0
+    times = []
+    for r in range(repeats):
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(c(jax.random.PRNGKey(r)))
+        times.append(time.perf_counter() - t0)
+    return {"method": method, "compile_s": compile_s, "run_s": sorted(times)[len(times) // 2], "of": float(out.best_f)}
+
+
+def _batched(method: str, runs: int = 50) -> dict:
+    import numpy as np
+
+    from dcjax import datasets, identify
+
+    r = identify(datasets.load("SD1"), method=method, runs=runs, seed=0)
+    return {
+        "method": method,
+        "runs": runs,
+        "devices": r.timing["devices"],
+        "compile_s": r.timing["compile_s"],
+        "run_s": r.timing["run_s"],
+        "mean_of": r.stats["mean"],
+        "runs_below_1e-15": int(np.sum(r.run_of <= 1e-15)),
+        "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
+
+
+def _scipy() -> dict:
+    import numpy as np
+    from scipy.optimize import differential_evolution
+
+    from dcjax import TABLE4, datasets
+    from dcjax.reference import objective_numpy
+
+    rec = datasets.load("SD1")
+    lo, hi = np.asarray(TABLE4.lower), np.asarray(TABLE4.upper)
+
+    def f(x):  # vectorized: x has shape (7, S)
+        return objective_numpy(x.T, rec.t, rec.u_a, rec.i_a, rec.omega)
+
+    t0 = time.perf_counter()
+    res = differential_evolution(
+        f, list(zip(lo, hi)), strategy="rand1exp", mutation=0.6, recombination=0.8, popsize=10, maxiter=2000,
+        tol=0, polish=False, vectorized=True, updating="deferred", seed=0,
+    )
+    # With vectorized=True scipy's nfev counts calls, each evaluating the whole population.
+    return {"run_s": time.perf_counter() - t0, "of": float(res.fun), "nfev": int(res.nfev) * 70}
+
+
+def _child(section: str, arg: str) -> dict:
+    fn = {"single": _single, "batched": _batched, "scipy": lambda _: _scipy()}[section]
+    return fn(arg)
+
+
+def _spawn(section: str, arg: str, devices: int) -> dict:
+    env = dict(os.environ, XLA_FLAGS=f"--xla_force_host_platform_device_count={devices}")
+    p = subprocess.run([sys.executable, __file__, "--child", section, arg], capture_output=True, text=True, env=env)
+    if p.returncode != 0:
+        raise RuntimeError(p.stderr)
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--child", nargs=2)
+    ap.add_argument("--skip-scipy", action="store_true")
+    args = ap.parse_args()
+    if args.child:
+        print(json.dumps(_child(*args.child)))
+        return
+    n = os.cpu_count()
+    print(f"SD1, RK4, NP = 70, 140,000 FEs per run; {n} cores")
+    print("\nOne run (jit, 1 XLA device; median of 3 seeds):")
+    single = {}
+    for m in METHODS:
+        single[m] = r = _spawn("single", m, 1)
+        print(f"  {m:15s} compile {r['compile_s']:5.2f} s  run {r['run_s']:6.3f} s  OF {r['of']:.3e}")
+    print(f"\n50 runs batched (identify, vmap over runs, sharded over {n} XLA devices):")
+    for m in METHODS:
+        r = _spawn("batched", m, n)
+        print(
+            f"  {m:15s} compile {r['compile_s']:5.2f} s  run {r['run_s']:6.2f} s  ({r['run_s'] / 50:.3f} s/run)"
+            f"  mean OF {r['mean_of']:.3e}  OF<=1e-15: {r['runs_below_1e-15']}/50  peak RSS {r['peak_rss_mb']:.0f} MB"
+        )
+    r1 = _spawn("batched", "de-rand-1-exp", 1)
+    print(f"  de-rand-1-exp on 1 device: compile {r1['compile_s']:.2f} s  run {r1['run_s']:.2f} s")
+    if not args.skip_scipy:
+        s = _spawn("scipy", "-", 1)
+        de = single["de-rand-1-exp"]["run_s"]
+        print(f"\nscipy differential_evolution(rand1exp, NumPy objective, vectorized): {s['run_s']:.1f} s, "
+              f"{s['nfev']} FEs, OF {s['of']:.3e}")
+        print(f"ratio scipy / dcjax one DE/rand/1/exp run: {s['run_s'] / de:.0f}x")
+
+
+if __name__ == "__main__":
+    main()

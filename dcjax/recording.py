@@ -129,17 +129,16 @@ def save_csv(recording: Recording, path: str | Path, metadata: dict | None = Non
     path.with_suffix(".json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
 
 
-def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: bool = True) -> Recording:
+def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: bool = False) -> Recording:
     """Keep only the part after the armature is switched on (paper Fig. 6).
 
-    Switch-on is the first sample whose |u_a| exceeds `threshold * max|u_a|`; the sample just
-    before it (armature still off, the state known) becomes the first sample, so the
-    simulation starts from it. With `rezero_time`, time restarts at 0."""
+    Switch-on shows as the first sample whose |u_a| exceeds `threshold * max|u_a|`; it and the
+    samples after it are kept, and the simulation starts from it (its measured current and speed
+    are the initial state). With `rezero_time`, time restarts at 0 there."""
     u = np.abs(recording.u_a)
     if not u.max() > 0:
         raise ValueError(f"{recording._where()}voltage is zero everywhere: no switch-on to find")
-    on = int(np.flatnonzero(u > threshold * u.max())[0])
-    start = max(on - 1, 0)
+    start = int(np.flatnonzero(u > threshold * u.max())[0])
     t = recording.t[start:]
     return recording.replace(
         t=t - t[0] if rezero_time else t,

@@ -80,11 +80,14 @@ def test_missing_file(tmp_path):
 def test_trim_switch_on():
     t = np.arange(10) * 0.1
     u = np.r_[np.zeros(4), np.full(6, 100.0)]
-    i = np.r_[np.zeros(5), np.ones(5)]
-    w = np.r_[np.zeros(5), np.arange(1, 6.0)]
+    i = np.r_[np.zeros(4), np.ones(6)]
+    w = np.r_[np.zeros(4), np.arange(1, 7.0)]
     trimmed = trim_switch_on(Recording(t=t, u_a=u, i_a=i, omega=w))
-    assert len(trimmed) == 7 and trimmed.t[0] == 0.0 and trimmed.u_a[0] == 0.0 and trimmed.u_a[1] == 100.0
-    np.testing.assert_allclose(trimmed.t, np.arange(7) * 0.1)
+    assert len(trimmed) == 6 and trimmed.u_a[0] == 100.0 and trimmed.i_a[0] == 1.0
+    np.testing.assert_allclose(trimmed.t, t[4:])
+    np.testing.assert_allclose(trim_switch_on(Recording(t=t, u_a=u, i_a=i, omega=w), rezero_time=True).t, np.arange(6) * 0.1)
+    with pytest.raises(ValueError, match="voltage is zero"):
+        trim_switch_on(Recording(t=t, u_a=np.zeros(10), i_a=i, omega=w))
 
 
 def test_bounds():

@@ -23,10 +23,10 @@ def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="dcjax", description="DC motor and drive parameter identification.")
     sub = p.add_subparsers(dest="command", required=True)
     f = sub.add_parser("fit", help="identify Ra, La, cm, J, Tla, Tlb, Tlc from a t,u_a,i_a,omega CSV")
-    f.add_argument("data", help="CSV file (t,u_a,i_a,omega) or an embedded data set name (SD1..SD4)")
+    f.add_argument("data", nargs="+", help="CSV file(s) (t,u_a,i_a,omega) or embedded names (SD1..SD4); several = joint fit")
     f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
     f.add_argument("--integrator", default="rk4", choices=["euler", "rk4"])
-    f.add_argument("--nd", type=int, default=1, help="sub-steps per sample interval (eq. 28)")
+    f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
     f.add_argument("--runs", type=int, default=50)
     f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
     f.add_argument("--seed", type=int, default=0)
@@ -36,6 +36,7 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--upper", default=None, help="7 comma-separated upper bounds")
     f.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
     f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
+    f.add_argument("--uncertainty", action="store_true", help="print standard errors, 95%% intervals and identifiability")
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
     return p
 
@@ -55,7 +56,15 @@ def fit(args) -> int:
     from .bounds import Bounds, bounds_preset
     from .identify import identify
 
-    rec = _load(args.data)
+    recs = [_load(d) for d in args.data]
+    rec = recs[0]
+    if args.nd == "auto":
+        nd = "auto"
+    else:
+        try:
+            nd = int(args.nd)
+        except ValueError:
+            raise ValueError(f"--nd must be a positive integer or 'auto', got {args.nd!r}") from None
     weights = tuple(_floats(args.weights, 2, "--weights"))
     if (args.lower is None) != (args.upper is None):
         raise ValueError("--lower and --upper must be given together")
@@ -66,10 +75,10 @@ def fit(args) -> int:
     else:
         bounds = bounds_preset(args.bounds or rec.metadata.get("bounds", "table4"))
     result = identify(
-        rec,
+        recs if len(recs) > 1 else rec,
         method=args.method,
         integrator=args.integrator,
-        nd=args.nd,
+        nd=nd,
         weights=weights,
         bounds=bounds,
         runs=args.runs,
@@ -83,7 +92,13 @@ def fit(args) -> int:
     result.to_json(out / "result.json")
     result.plot(out / "fit.png")
     truth = rec.metadata.get("true_params")
-    print(f"{rec.name}: {args.method}, {args.integrator}, ND={args.nd}, {args.runs} runs x {args.budget} FEs, seed {args.seed}")
+    if any(r.metadata.get("true_params") != truth for r in recs):
+        truth = None
+    names = " + ".join(r.name for r in recs)
+    print(f"{names}: {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}")
+    for step in result.settings.get("nd_sequence", []):
+        change = "" if step["max_rel_change"] is None else f", max rel. change {step['max_rel_change']:.2e}"
+        print(f"  ND={step['nd']}: OF {step['of']:.4e}{change}")
     header = f"{'param':>6} {'unit':>7} {'identified':>22}" + (f" {'true':>14} {'rel. error':>11}" if truth else "")
     print(header)
     for name in PARAM_NAMES:
@@ -96,6 +111,8 @@ def fit(args) -> int:
     s = result.stats
     print(f"OF best {s['best']:.4e}  worst {s['worst']:.4e}  mean {s['mean']:.4e}  std {s['std']:.4e}")
     print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
+    if args.uncertainty:
+        print(result.uncertainty().table())
     print(f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}")
     return 0
 

@@ -35,7 +35,37 @@ class IdentificationResult:
     settings: dict
     timing: dict
     polish: dict | None = None
-    recording: Recording | None = dataclasses.field(default=None, repr=False)
+    recordings: list[Recording] = dataclasses.field(default_factory=list, repr=False)
+
+    @property
+    def recording(self) -> Recording | None:
+        """The (first) fitted recording."""
+        return self.recordings[0] if self.recordings else None
+
+    def _problems(self, recordings=None):
+        s = self.settings
+        return [
+            make_problem(r, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]), i_limit=s["i_limit"])
+            for r in (recordings or self.recordings)
+        ]
+
+    def uncertainty(self, profile: str | None = None, profile_points: int = 11):
+        """Standard errors, 95 % intervals, correlations and identifiability verdicts at the best
+        parameters (`dcjax.uncertainty`); with `profile="Tla"` also a profile likelihood over the
+        95 % interval of that parameter (`.profile = (values, OFs)`)."""
+        from .uncertainty import profile as profile_fn
+        from .uncertainty import uncertainty
+
+        b = Bounds(self.settings["bounds"]["lower"], self.settings["bounds"]["upper"])
+        x = np.array([self.params[n] for n in PARAM_NAMES])
+        jw = self.settings.get("joint_weights")
+        u = uncertainty(x, self._problems(), b, weights=jw)
+        if profile is not None:
+            lo, hi = u.ci95[profile]
+            k = PARAM_NAMES.index(profile)
+            grid = np.linspace(max(lo, float(b.lower[k])), min(hi, float(b.upper[k])), profile_points)
+            u.profile = (grid, profile_fn(x, profile, grid, self._problems(), b, weights=jw))
+        return u
 
     @property
     def stats(self) -> dict[str, float]:
@@ -73,9 +103,7 @@ class IdentificationResult:
         """(N, 2) current and speed of the best parameters on `recording` (default: the fitted one)."""
         from .integrate import simulate
 
-        rec = recording or self.recording
-        s = self.settings
-        prob = make_problem(rec, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]), i_limit=s["i_limit"])
+        prob = self._problems([recording or self.recording])[0]
         return np.asarray(simulate(Params.from_dict(self.params), prob))
 
     def plot(self, path: str | Path | None = None, true_params: dict | None = None):
@@ -86,20 +114,25 @@ class IdentificationResult:
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        rec = self.recording
-        sim = self.simulate()
-        fig, ax = plt.subplots(1, 3, figsize=(14, 4))
-        ax[0].plot(rec.t, rec.i_a, "k.", ms=3, label="measured")
-        ax[0].plot(rec.t, sim[:, 0], "r-", lw=1, label="simulated")
-        ax[0].set(xlabel="t (s)", ylabel="i_a (A)", title=f"{rec.name}: current")
-        ax[1].plot(rec.t, rec.omega, "k.", ms=3, label="measured")
-        ax[1].plot(rec.t, sim[:, 1], "r-", lw=1, label="simulated")
-        ax[1].set(xlabel="t (s)", ylabel="ω (1/s)", title="speed")
-        for h in self.history:
-            ax[2].semilogy(np.arange(1, h.size + 1), h, lw=0.7)
-        ax[2].set(xlabel="iteration", ylabel="best OF", title=f"convergence ({len(self.history)} runs)")
-        for a in ax[:2]:
-            a.legend()
+        n = len(self.recordings)
+        fig, axes = plt.subplots(n, 3, figsize=(14, 4 * n), squeeze=False)
+        for row, rec in enumerate(self.recordings):
+            ax = axes[row]
+            sim = self.simulate(rec)
+            ax[0].plot(rec.t, rec.i_a, "k.", ms=3, label="measured")
+            ax[0].plot(rec.t, sim[:, 0], "r-", lw=1, label="simulated")
+            ax[0].set(xlabel="t (s)", ylabel="i_a (A)", title=f"{rec.name}: current")
+            ax[1].plot(rec.t, rec.omega, "k.", ms=3, label="measured")
+            ax[1].plot(rec.t, sim[:, 1], "r-", lw=1, label="simulated")
+            ax[1].set(xlabel="t (s)", ylabel="ω (1/s)", title="speed")
+            for a in ax[:2]:
+                a.legend()
+            if row == 0:
+                for h in self.history:
+                    ax[2].semilogy(np.arange(1, h.size + 1), h, lw=0.7)
+                ax[2].set(xlabel="iteration", ylabel="best OF", title=f"convergence ({len(self.history)} runs)")
+            else:
+                ax[2].axis("off")
         fig.tight_layout()
         if path is not None:
             fig.savefig(path, dpi=120)
@@ -133,10 +166,10 @@ def _resolve_bounds(bounds) -> Bounds:
 
 
 def identify(
-    recording: Recording,
+    recording: Recording | list[Recording],
     method: str | Strategy = "de-rand-1-exp",
     integrator: str = "rk4",
-    nd: int = 1,
+    nd: int | str = 1,
     weights: tuple[float, float] = (1.0, 1.0),
     bounds: Bounds | str | tuple | None = None,
     runs: int = 50,
@@ -146,15 +179,37 @@ def identify(
     pop_size: int = 70,
     i_limit: float | None = None,
     strategy_options: dict | None = None,
+    joint_weights: list[float] | None = None,
+    nd_tol: float = 1e-3,
+    nd_max: int = 64,
 ) -> IdentificationResult:
     """Identify `Ra, La, cm, J, Tla, Tlb, Tlc` from `recording`.
 
     `runs` independent runs of `method` (paper defaults: NP = 70, 140,000 FEs) are `vmap`ped into
     one compiled call; run r uses `jax.random.fold_in(PRNGKey(seed), r)`, so a run does not depend
     on how many others are made. `bounds`: a `Bounds`, `"table4"` (default) / `"table8"`, or a
-    `(lower, upper)` pair. `polish=True` runs Levenberg–Marquardt from every run's best."""
-    if not isinstance(recording, Recording):
-        raise ValueError(f"recording must be a dcjax.Recording, got {type(recording).__name__}")
+    `(lower, upper)` pair. `polish=True` runs Levenberg–Marquardt from every run's best.
+
+    Joint fit: a list of recordings of one drive (each with its own voltage, limit and initial
+    state) shares the seven parameters; the OF is the mean of their OFs, or the weighted sum with
+    `joint_weights` (Section 4.2.5's argument that MD1–MD3 must give one parameter set).
+
+    `nd="auto"` (paper Section 5): fit with ND = 1, 2, 4, ... until the best parameters change by
+    less than `nd_tol` (relative, floored at 1e-6 of the bound width) from one ND to its double;
+    returns the finer fit with the sequence in `settings["nd_sequence"]`."""
+    recordings = recording if isinstance(recording, (list, tuple)) else [recording]
+    if not recordings or not all(isinstance(r, Recording) for r in recordings):
+        raise ValueError("recording must be a dcjax.Recording or a non-empty list of them")
+    if joint_weights is not None:
+        joint_weights = [float(w) for w in joint_weights]
+        if len(joint_weights) != len(recordings) or any(not w >= 0 for w in joint_weights) or sum(joint_weights) <= 0:
+            raise ValueError("joint_weights needs one non-negative weight per recording, not all zero")
+    if nd == "auto":
+        return _identify_auto_nd(
+            recordings, nd_tol=nd_tol, nd_max=nd_max, method=method, integrator=integrator, weights=weights,
+            bounds=bounds, runs=runs, budget=budget, seed=seed, polish=polish, pop_size=pop_size, i_limit=i_limit,
+            strategy_options=strategy_options, joint_weights=joint_weights,
+        )
     for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
@@ -164,11 +219,15 @@ def identify(
         raise ValueError(f"seed must be an integer, got {seed!r}")
     b = _resolve_bounds(bounds)
     strategy = make_strategy(method, pop_size=pop_size, **(strategy_options or {}))
-    problem = make_problem(recording, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit)
+    problems = [make_problem(r, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit) for r in recordings]
+    jw = joint_weights or [1.0 / len(problems)] * len(problems)
+
+    def of(x):
+        p = Params.from_array(x)
+        return sum(w * objective(p, prob) for w, prob in zip(jw, problems))
 
     def one_run(key):
-        fn = lambda z: objective(Params.from_array(b.to_physical(z)), problem)  # noqa: E731
-        return run(strategy, key, fn, budget)
+        return run(strategy, key, lambda z: of(b.to_physical(z)), budget)
 
     keys, n_dev = _run_keys(seed, runs)
     batched = eqx.filter_jit(jax.vmap(one_run))
@@ -185,7 +244,7 @@ def identify(
         from .polish import polish_batch
 
         t3 = time.perf_counter()
-        pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), problem, b))
+        pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), problems, b, jw))
         polish_info = {
             "of_before": np.asarray(pol.of_before).tolist(),
             "of_after": np.asarray(pol.of_after).tolist(),
@@ -197,7 +256,8 @@ def identify(
     best = int(np.argmin(run_of))
     name = method if isinstance(method, str) else type(method).__name__
     settings = {
-        "recording": recording.name,
+        "recording": recordings[0].name if len(recordings) == 1 else [r.name for r in recordings],
+        "joint_weights": joint_weights,
         "method": name,
         "integrator": integrator,
         "nd": nd,
@@ -208,7 +268,7 @@ def identify(
         "seed": seed,
         "pop_size": pop_size,
         "polish": polish,
-        "i_limit": problem.i_limit if problem.i_limit is None else float(problem.i_limit),
+        "i_limit": i_limit,
         "strategy": repr(strategy),
     }
     return IdentificationResult(
@@ -222,5 +282,22 @@ def identify(
         settings=settings,
         timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": n_dev},
         polish=polish_info,
-        recording=recording,
+        recordings=list(recordings),
     )
+
+
+def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
+    b = _resolve_bounds(kw["bounds"])
+    floor = 1e-6 * np.asarray(b.upper - b.lower)
+    sequence, prev, nd = [], None, 1
+    while True:
+        res = identify(recordings if len(recordings) > 1 else recordings[0], nd=nd, **kw)
+        x = np.array([res.params[n] for n in PARAM_NAMES])
+        change = None if prev is None else float(np.max(np.abs(x - prev) / np.maximum(np.abs(prev), floor)))
+        sequence.append({"nd": nd, "of": res.of, "params": res.params, "max_rel_change": change})
+        if (change is not None and change < nd_tol) or 2 * nd > nd_max:
+            break
+        prev, nd = x, 2 * nd
+    res.settings["nd_sequence"] = sequence
+    res.settings["nd_auto"] = {"tol": nd_tol, "max": nd_max, "converged": sequence[-1]["max_rel_change"] is not None and sequence[-1]["max_rel_change"] < nd_tol}
+    return res

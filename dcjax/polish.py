@@ -8,7 +8,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .bounds import Bounds
-from .objectives import objective, residuals
+from .objectives import residuals
 from .params import Params
 from .problem import Problem
 
@@ -32,30 +32,42 @@ def _to_unit(y):
 
 def polish(
     x: Float[Array, " 7"],
-    problem: Problem,
+    problem: Problem | list[Problem],
     bounds: Bounds,
+    joint_weights: list[float] | None = None,
     rtol: float = 1e-12,
     atol: float = 1e-14,
     max_steps: int = 200,
 ) -> PolishResult:
     """Minimize sum(r(x)^2) (= OF) with `optx.LevenbergMarquardt` from `x` (physical units).
+    Several problems (a joint fit) stack their residuals, each scaled by sqrt(its weight).
 
     Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
     (relative) of a bound is moved that far inside. The result is only accepted when its OF is
     not larger than the start's; returns arrays only (no `optx.Solution`), so it vmaps."""
     eps = 1e-12
     z0 = bounds.to_unit(x)
+    problems = problem if isinstance(problem, list) else [problem]
+    jw = joint_weights or [1.0 / len(problems)] * len(problems)
+
+    def r_of(x):
+        p = Params.from_array(x)
+        return jnp.concatenate([jnp.sqrt(w) * residuals(p, prob) for w, prob in zip(jw, problems)])
+
+    def of(x):
+        r = r_of(x)
+        return jnp.sum(r * r)
 
     def fn(y, _):
-        return residuals(Params.from_array(bounds.to_physical(_to_unit(y))), problem)
+        return r_of(bounds.to_physical(_to_unit(y)))
 
     y0 = _to_free(z0, eps)
     sol = optx.least_squares(
         fn, optx.LevenbergMarquardt(rtol=rtol, atol=atol), y0, max_steps=max_steps, throw=False
     )
     x_new = bounds.to_physical(_to_unit(sol.value))
-    of0 = objective(Params.from_array(x), problem)
-    of1 = objective(Params.from_array(x_new), problem)
+    of0 = of(x)
+    of1 = of(x_new)
     better = of1 <= of0
     return PolishResult(
         jnp.where(better, x_new, x), of0, jnp.where(better, of1, of0), sol.stats["num_steps"]
@@ -63,4 +75,4 @@ def polish(
 
 
 polish_jit = eqx.filter_jit(polish)
-polish_batch = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None)))
+polish_batch = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None, None)))

@@ -7,35 +7,13 @@ measured sets (Table 7), made by dcjax.emulate — NOT the paper's measurements.
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
+from dcjax.datasets import write_or_check
 from dcjax.emulate import emulate, md_settings
-from dcjax.recording import save_csv
-
-NAMES = ("MD1", "MD2", "MD3", "MD4")
-
-
-def write_all(folder: Path) -> None:
-    for name in NAMES:
-        save_csv(emulate(md_settings(name)), folder / f"{name}.csv")
-
-
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--check", action="store_true")
-    args = ap.parse_args()
-    here = Path(__file__).resolve().parent
-    if not args.check:
-        write_all(here)
-        print(f"wrote {', '.join(NAMES)} to {here}")
-        return 0
-    with tempfile.TemporaryDirectory() as tmp:
-        write_all(Path(tmp))
-        bad = [f.name for f in sorted(Path(tmp).iterdir()) if f.read_bytes() != (here / f.name).read_bytes()]
-    print("identical" if not bad else f"differ: {bad}")
-    return 1 if bad else 0
-
 
 if __name__ == "__main__":
-    sys.exit(main())
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--check", action="store_true")
+    makers = {name: (lambda n=name: emulate(md_settings(n))) for name in ("MD1", "MD2", "MD3", "MD4")}
+    sys.exit(write_or_check(makers, Path(__file__).resolve().parent, ap.parse_args().check))

@@ -5,34 +5,14 @@
 """
 
 import argparse
+import functools
 import sys
-import tempfile
 from pathlib import Path
 
-from dcjax.datasets import SD_PARAMS, generate_sd
-from dcjax.recording import save_csv
-
-
-def write_all(folder: Path) -> None:
-    for name in SD_PARAMS:
-        save_csv(generate_sd(name), folder / f"{name}.csv")
-
-
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--check", action="store_true")
-    args = ap.parse_args()
-    here = Path(__file__).resolve().parent
-    if not args.check:
-        write_all(here)
-        print(f"wrote {', '.join(SD_PARAMS)} to {here}")
-        return 0
-    with tempfile.TemporaryDirectory() as tmp:
-        write_all(Path(tmp))
-        bad = [f.name for f in sorted(Path(tmp).iterdir()) if f.read_bytes() != (here / f.name).read_bytes()]
-    print("identical" if not bad else f"differ: {bad}")
-    return 1 if bad else 0
-
+from dcjax.datasets import SD_PARAMS, generate_sd, write_or_check
 
 if __name__ == "__main__":
-    sys.exit(main())
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--check", action="store_true")
+    makers = {name: functools.partial(generate_sd, name) for name in SD_PARAMS}
+    sys.exit(write_or_check(makers, Path(__file__).resolve().parent, ap.parse_args().check))

@@ -61,3 +61,25 @@ def load(name: str) -> Recording:
     true_params(key)
     path = DATA_DIR / f"{key}.csv"
     return load_csv(path) if path.is_file() else generate_sd(key)
+
+
+def write_or_check(makers: dict, folder: Path, check: bool) -> int:
+    """Write `NAME.csv` (+ sidecar) for each `makers[NAME]()` recording into `folder`, or with
+    `check` compare a fresh generation with the files there byte for byte (1 if any differs)."""
+    import tempfile
+
+    from .recording import save_csv
+
+    def write_all(where: Path) -> None:
+        for name, make in makers.items():
+            save_csv(make(), where / f"{name}.csv")
+
+    if not check:
+        write_all(folder)
+        print(f"wrote {', '.join(makers)} to {folder}")
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        write_all(Path(tmp))
+        bad = [f.name for f in sorted(Path(tmp).iterdir()) if f.read_bytes() != (folder / f.name).read_bytes()]
+    print("identical" if not bad else f"differ: {bad}")
+    return 1 if bad else 0

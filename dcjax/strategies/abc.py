@@ -14,7 +14,7 @@ A colony of NP bees tends SN = NP / 2 food sources.
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, uniform_population
+from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, initial_state
 
 
 class ABC(Strategy):
@@ -30,9 +30,7 @@ class ABC(Strategy):
         return max(0, -(-(budget - self.n_sources) // (2 * self.n_sources)))
 
     def init(self, key, fn, budget, dim=7) -> State:
-        pop = uniform_population(key, self.n_sources, dim, self.init_rule)
-        fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
-        return State(pop, fit, pop[0], jnp.asarray(jnp.inf), fes, aux=jnp.zeros(self.n_sources, jnp.int32))
+        return initial_state(key, fn, budget, self.n_sources, dim, self.init_rule, aux=jnp.zeros(self.n_sources, jnp.int32))
 
     def _move(self, key, pop, who):
         """Candidate v for the sources `who` (one per bee)."""

@@ -37,6 +37,13 @@ def evaluate(fn: FitnessFn, z: Float[Array, "P D"], fes: Int[Array, ""], budget:
     return f, fes + jnp.sum(allowed)
 
 
+def initial_state(key: PRNGKeyArray, fn: FitnessFn, budget: int, n: int, dim: int, init: str, aux: PyTree = None) -> State:
+    """A random population of `n` (see `uniform_population`), evaluated within the budget."""
+    pop = uniform_population(key, n, dim, init)
+    fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
+    return State(pop, fit, pop[0], jnp.asarray(jnp.inf), fes, aux)
+
+
 def with_best(state: State) -> State:
     k = jnp.argmin(state.fit)
     better = state.fit[k] < state.best_f

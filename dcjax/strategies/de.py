@@ -5,7 +5,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .base import BOUND_RULES, State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, uniform_population
+from .base import BOUND_RULES, State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, initial_state
 
 
 def exponential_crossover(key, target: Float[Array, "P D"], mutant: Float[Array, "P D"], cr: float):
@@ -45,9 +45,7 @@ class _DE(Strategy):
         return max(0, -(-(budget - self.pop_size) // self.pop_size))
 
     def init(self, key, fn, budget, dim=7) -> State:
-        pop = uniform_population(key, self.pop_size, dim, self.init_rule)
-        fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
-        return State(pop, fit, pop[0], jnp.asarray(jnp.inf), fes)
+        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule)
 
     def mutant(self, key, state: State) -> Array:
         raise NotImplementedError

@@ -15,7 +15,7 @@ One generation:
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, evaluate, uniform_population
+from .base import State, Strategy, evaluate, initial_state
 
 
 class GA(Strategy):
@@ -31,9 +31,7 @@ class GA(Strategy):
         return max(0, (budget - self.pop_size) // self.pop_size)
 
     def init(self, key, fn, budget, dim=7) -> State:
-        pop = uniform_population(key, self.pop_size, dim, self.init_rule)
-        fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
-        return State(pop, fit, pop[0], jnp.asarray(jnp.inf), fes)
+        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule)
 
     def step(self, key, state, fn, budget) -> State:
         n, d = state.pop.shape

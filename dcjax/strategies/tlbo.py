@@ -10,7 +10,7 @@ Each phase keeps x' when it is no worse (greedy); out-of-bound genes are clipped
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, uniform_population
+from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, initial_state
 
 
 class TLBO(Strategy):
@@ -21,9 +21,7 @@ class TLBO(Strategy):
         return max(0, -(-(budget - self.pop_size) // (2 * self.pop_size)))
 
     def init(self, key, fn, budget, dim=7) -> State:
-        pop = uniform_population(key, self.pop_size, dim, self.init_rule)
-        fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
-        return State(pop, fit, pop[0], jnp.asarray(jnp.inf), fes)
+        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule)
 
     def step(self, key, state, fn, budget) -> State:
         n, d = state.pop.shape

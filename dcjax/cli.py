@@ -75,7 +75,7 @@ def fit(args) -> int:
     else:
         bounds = bounds_preset(args.bounds or rec.metadata.get("bounds", "table4"))
     result = identify(
-        recs if len(recs) > 1 else rec,
+        recs,
         method=args.method,
         integrator=args.integrator,
         nd=nd,

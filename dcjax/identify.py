@@ -291,7 +291,7 @@ def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
     floor = 1e-6 * np.asarray(b.upper - b.lower)
     sequence, prev, nd = [], None, 1
     while True:
-        res = identify(recordings if len(recordings) > 1 else recordings[0], nd=nd, **kw)
+        res = identify(recordings, nd=nd, **kw)
         x = np.array([res.params[n] for n in PARAM_NAMES])
         change = None if prev is None else float(np.max(np.abs(x - prev) / np.maximum(np.abs(prev), floor)))
         sequence.append({"nd": nd, "of": res.of, "params": res.params, "max_rel_change": change})

@@ -13,7 +13,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-import dcjax
 from dcjax import TABLE4, Params, datasets, make_problem, objective
 from dcjax.integrate import rk4_step
 from dcjax.model import Coefficients
@@ -32,7 +31,7 @@ def main():
     results = {}
     for unroll in (1, 2):
         prob = make_problem(rec, unroll=unroll)
-        f = jax.jit(lambda x: objective(Params.from_array(x), prob))
+        f = jax.jit(lambda x, prob=prob: objective(Params.from_array(x), prob))
         t0 = time.perf_counter()
         f(jnp.asarray(pops[0])).block_until_ready()
         compile_s = time.perf_counter() - t0

@@ -19,7 +19,7 @@ def main():
     ap.add_argument("--data", default="SD1")
     args = ap.parse_args()
     rec = datasets.load(args.data)
-    lo, hi = np.asarray(TABLE4.lower), np.asarray(TABLE4.upper)
+    hi = np.asarray(TABLE4.upper)
     print(f"{args.data}, DE/rand/1/exp, RK4, NP 70, 140,000 FEs, {args.runs} runs")
     print(f"{'bounds rule':12s} {'init':8s} {'OF<=1e-15':>10s} {'at upper bound':>15s} {'worst OF':>10s} {'run s':>6s}")
     for rule in ("redraw", "clip", "midpoint"):

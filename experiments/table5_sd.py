@@ -72,13 +72,11 @@ def main():
             print(f"  {m:15s} {cells}  {int(np.sum(f <= 1e-15)):3d}/{f.size}    {err:.2e}")
         order = sorted(means, key=means.get)
         print(f"  ranking by mean OF: {' < '.join(order)}")
-    sd1 = rows[("SD1", "de-rand-1-exp")]
     print("\nTable 6 (SD1, mean parameters over runs):")
     truth = datasets.true_params("SD1")
     for k, p in enumerate(PARAM_NAMES):
         vals = " ".join(f"{np.mean(np.asarray(rows[('SD1', m)]['run_params'])[:, k]):11.4e}" for m in METHODS)
         print(f"  {p:4s} true {truth[p]:10.4e} | {vals}   ({', '.join(METHODS)})")
-    del sd1
     print(f"\nwall time this invocation: {time.perf_counter() - t_start:.0f} s")
 
 

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, TABLE4, Params, datasets, identify, make_problem
+from dcjax import PARAM_NAMES, TABLE4, datasets, identify, make_problem
 from dcjax.cli import main
 from dcjax.polish import polish_jit
 

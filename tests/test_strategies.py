@@ -156,7 +156,7 @@ def test_evosax_de_cross_checks_de_best_1_bin():
     ours = DEBest1Bin()
     med = {}
     for label, s in (("evosax", ev), ("dcjax", ours)):
-        f = jax.jit(jax.vmap(lambda k: run(s, k, sphere, 14_000)))
+        f = jax.jit(jax.vmap(lambda k, s=s: run(s, k, sphere, 14_000)))
         med[label] = float(np.median(np.asarray(f(jax.random.split(jax.random.PRNGKey(0), 4)).best_f)))
     assert med["evosax"] < 1e-12 and med["dcjax"] < 1e-12, med
     assert 1e-4 < med["dcjax"] / med["evosax"] < 1e4, med

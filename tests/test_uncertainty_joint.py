@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, TABLE4, Params, Recording, datasets, identify, make_problem
+from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem
 from dcjax.polish import polish_jit
 from dcjax.reference import simulate_numpy
 from dcjax.uncertainty import NOT, WELL, profile, uncertainty
@@ -100,7 +100,8 @@ def test_joint_fit_recovers_shared_parameters():
 
 
 def test_nd_auto_stops_where_finer_changes_nothing():
-    """Euler on SD1: the fit moves as ND doubles until the change drops below the tolerance."""
+    """RK4 on SD1 stops once doubling ND changes the fit by < tol, and a further doubling indeed
+    changes nothing; with Euler, ND = 1 -> 2 moves the fit (the loop does not stop at once)."""
     rec = datasets.load("SD1")
     r = identify(rec, integrator="rk4", nd="auto", nd_tol=1e-4, runs=2, seed=0)
     seq = r.settings["nd_sequence"]

@@ -37,6 +37,9 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
     f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
     f.add_argument("--uncertainty", action="store_true", help="print standard errors, 95%% intervals and identifiability")
+    f.add_argument("--memory", default=None, choices=["stma", "ltma-s1", "ltma-s2"], help="memory assistance (Section 4.4)")
+    f.add_argument("--precision", default=None, help="7 comma-separated duplicate precisions (default Table 29)")
+    f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
     return p
 
@@ -86,6 +89,9 @@ def fit(args) -> int:
         seed=args.seed,
         polish=args.polish,
         i_limit=args.i_limit,
+        memory=args.memory,
+        precision=None if args.precision is None else _floats(args.precision, 7, "--precision"),
+        generations=args.generations,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -111,6 +117,9 @@ def fit(args) -> int:
     s = result.stats
     print(f"OF best {s['best']:.4e}  worst {s['worst']:.4e}  mean {s['mean']:.4e}  std {s['std']:.4e}")
     print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
+    if result.duplicates is not None:
+        d = result.duplicates
+        print(f"memory {args.memory}: {d['percent']:.1f} % of candidates answered from memory; mean FEs {result.fes.mean():.0f}, iterations {result.iterations.mean():.0f}")
     if args.uncertainty:
         print(result.uncertainty().table())
     print(f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}")

@@ -19,6 +19,7 @@ from .params import PARAM_NAMES, Params
 from .problem import make_problem
 from .recording import Recording
 from .strategies import Strategy, make_strategy, run
+from .strategies.memory import MEMORY_KINDS, TABLE29, unit_precision
 
 
 @dataclasses.dataclass
@@ -29,12 +30,14 @@ class IdentificationResult:
     of: float
     run_of: np.ndarray  # (R,)
     run_params: np.ndarray  # (R, 7), physical units
-    fes: np.ndarray  # (R,)
+    fes: np.ndarray  # (R,) real evaluations
     iterations: np.ndarray  # (R,)
     history: np.ndarray  # (R, T) best OF after each iteration (NaN past a run's end)
     settings: dict
     timing: dict
     polish: dict | None = None
+    dups: np.ndarray | None = None  # (R,) candidates answered from memory
+    memory_chunks: np.ndarray | None = None  # (R,) memory chunks searched
     recordings: list[Recording] = dataclasses.field(default_factory=list, repr=False)
 
     @property
@@ -74,6 +77,16 @@ class IdentificationResult:
         return {"best": float(f.min()), "worst": float(f.max()), "mean": float(f.mean()), "std": float(f.std())}
 
     @property
+    def duplicates(self) -> dict[str, float] | None:
+        """Memory use (Tables 30–33): mean candidates answered from memory per run and that as a
+        percentage of all candidates proposed, `pop_size` x (iterations + 1) (the paper's
+        convention, 70 x 2000 = 140,000)."""
+        if self.dups is None:
+            return None
+        proposed = self.settings["pop_size"] * (self.iterations + 1)
+        return {"mean": float(self.dups.mean()), "percent": float(100 * np.mean(self.dups / proposed))}
+
+    @property
     def mean_params(self) -> dict[str, float]:
         """Mean of each parameter over runs (Table 6)."""
         return dict(zip(PARAM_NAMES, map(float, self.run_params.mean(axis=0))))
@@ -84,9 +97,11 @@ class IdentificationResult:
             "of": self.of,
             "runs": [
                 {"of": float(o), "params": dict(zip(PARAM_NAMES, map(float, p))), "fes": int(n), "iterations": int(it)}
-                for o, p, n, it in zip(self.run_of, self.run_params, self.fes, self.iterations)
+                | ({} if self.dups is None else {"dups": int(self.dups[r])})
+                for r, (o, p, n, it) in enumerate(zip(self.run_of, self.run_params, self.fes, self.iterations))
             ],
             "stats": self.stats,
+            "duplicates": self.duplicates,
             "mean_params": self.mean_params,
             "polish": self.polish,
             "settings": self.settings,
@@ -148,10 +163,11 @@ def _run_keys(seed: int, runs: int):
     n_dev = len(devices) if runs > 1 else 1
     padded = -(-runs // n_dev) * n_dev
     keys = jax.vmap(lambda r: jax.random.fold_in(jax.random.PRNGKey(seed), r))(jnp.arange(padded))
+    mesh = None
     if n_dev > 1:
         mesh = Mesh(np.array(devices), ("runs",))
         keys = jax.device_put(keys, NamedSharding(mesh, PartitionSpec("runs")))
-    return keys, n_dev
+    return keys, n_dev, mesh
 
 
 def _resolve_bounds(bounds) -> Bounds:
@@ -182,6 +198,9 @@ def identify(
     joint_weights: list[float] | None = None,
     nd_tol: float = 1e-3,
     nd_max: int = 64,
+    memory: str | None = None,
+    precision=None,
+    generations: int | None = None,
 ) -> IdentificationResult:
     """Identify `Ra, La, cm, J, Tla, Tlb, Tlc` from `recording`.
 
@@ -196,7 +215,14 @@ def identify(
 
     `nd="auto"` (paper Section 5): fit with ND = 1, 2, 4, ... until the best parameters change by
     less than `nd_tol` (relative, floored at 1e-6 of the bound width) from one ND to its double;
-    returns the finer fit with the sequence in `settings["nd_sequence"]`."""
+    returns the finer fit with the sequence in `settings["nd_sequence"]`.
+
+    `memory` (Section 4.4): `None`, `"stma"`, `"ltma-s1"` or `"ltma-s2"`; a candidate within
+    `precision` (physical units, default Table 29, see `dcjax.strategies.memory`) of a record is
+    not simulated and costs no FE, so the budget lasts longer; `generations` caps the iterations
+    (the paper's Tables 30–33 compare equal iteration counts: 1999 DE steps after the initial
+    population = 70 x 2000 candidates). The runs of each device are compacted together so that
+    skipped candidates are really not computed (`dcjax.strategies.compact`)."""
     recordings = recording if isinstance(recording, (list, tuple)) else [recording]
     if not recordings or not all(isinstance(r, Recording) for r in recordings):
         raise ValueError("recording must be a dcjax.Recording or a non-empty list of them")
@@ -208,7 +234,8 @@ def identify(
         return _identify_auto_nd(
             recordings, nd_tol=nd_tol, nd_max=nd_max, method=method, integrator=integrator, weights=weights,
             bounds=bounds, runs=runs, budget=budget, seed=seed, polish=polish, pop_size=pop_size, i_limit=i_limit,
-            strategy_options=strategy_options, joint_weights=joint_weights,
+            strategy_options=strategy_options, joint_weights=joint_weights, memory=memory, precision=precision,
+            generations=generations,
         )
     for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
@@ -217,7 +244,12 @@ def identify(
         raise ValueError(f"budget ({budget}) must be at least one population ({pop_size})")
     if not isinstance(seed, (int, np.integer)):
         raise ValueError(f"seed must be an integer, got {seed!r}")
+    if memory is not None and memory not in MEMORY_KINDS:
+        raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {memory!r}")
+    if generations is not None and (not isinstance(generations, (int, np.integer)) or generations < 1):
+        raise ValueError(f"generations must be a positive integer, got {generations!r}")
     b = _resolve_bounds(bounds)
+    prec = None if memory is None else jnp.asarray(unit_precision(precision, b))
     strategy = make_strategy(method, pop_size=pop_size, **(strategy_options or {}))
     problems = [make_problem(r, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit) for r in recordings]
     jw = joint_weights or [1.0 / len(problems)] * len(problems)
@@ -227,10 +259,15 @@ def identify(
         return sum(w * objective(p, prob) for w, prob in zip(jw, problems))
 
     def one_run(key):
-        return run(strategy, key, lambda z: of(b.to_physical(z)), budget)
+        return run(strategy, key, lambda z: of(b.to_physical(z)), budget, memory=memory, precision=prec, generations=generations)
 
-    keys, n_dev = _run_keys(seed, runs)
-    batched = eqx.filter_jit(jax.vmap(one_run))
+    keys, n_dev, mesh = _run_keys(seed, runs)
+    if memory is not None and mesh is not None:
+        # Each device runs its own vmapped batch, so compaction stays local to the device.
+        spec = PartitionSpec("runs")
+        batched = eqx.filter_jit(jax.shard_map(jax.vmap(one_run), mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
+    else:
+        batched = eqx.filter_jit(jax.vmap(one_run))
     t0 = time.perf_counter()
     compiled = batched.lower(keys).compile()
     t1 = time.perf_counter()
@@ -269,6 +306,9 @@ def identify(
         "pop_size": pop_size,
         "polish": polish,
         "i_limit": i_limit,
+        "memory": memory,
+        "precision": None if memory is None else np.asarray(TABLE29 if precision is None else precision, float).tolist(),
+        "generations": generations,
         "strategy": repr(strategy),
     }
     return IdentificationResult(
@@ -282,6 +322,8 @@ def identify(
         settings=settings,
         timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": n_dev},
         polish=polish_info,
+        dups=None if memory is None else np.asarray(out.dups),
+        memory_chunks=None if memory is None else np.asarray(out.chunks),
         recordings=list(recordings),
     )
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dcjax import TABLE4, Params, make_problem, objective
-from dcjax.strategies import DEBest1Bin, Evosax, make_strategy, run
+from dcjax.strategies import DEBest1Bin, Evosax, State, make_strategy, run
 from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate
 from dcjax.strategies.de import binomial_crossover, exponential_crossover
 
@@ -136,7 +136,10 @@ def test_bound_rules():
 
 
 def test_evaluate_respects_budget():
-    f, fes = evaluate(sphere, jnp.full((10, 7), 0.5), jnp.asarray(95), 100)
+    z = jnp.full((10, 7), 0.5)
+    state = State(z, jnp.zeros(10), z[0], jnp.asarray(jnp.inf), jnp.asarray(95), None, jnp.asarray(0))
+    f, _, state = evaluate(sphere, z, state, 100)
+    fes = state.fes
     assert int(fes) == 100 and np.all(np.isinf(np.asarray(f)[5:])) and np.all(np.isfinite(np.asarray(f)[:5]))
 
 

@@ -50,7 +50,7 @@ class ABC(Strategy):
         # Employed bees.
         idx = jnp.arange(sn)
         v = self._move(ke, pop, idx)
-        fv, fes = evaluate(fn, v, state.fes, budget)
+        fv, v, state = evaluate(fn, v, state, budget)
         win = (fv <= fit) & jnp.isfinite(fv)
         pop = jnp.where(win[:, None], v, pop)
         fit = jnp.where(win, fv, fit)
@@ -61,7 +61,7 @@ class ABC(Strategy):
         prob = jnp.where(total > 0, quality / jnp.where(total > 0, total, 1.0), 1.0 / sn)
         chosen = jax.random.choice(kc, sn, (sn,), p=prob)
         v = self._move(ko, pop, chosen)
-        fv, fes = evaluate(fn, v, fes, budget)
+        fv, v, state = evaluate(fn, v, state, budget)
         per_source = jnp.where(chosen[None, :] == idx[:, None], fv[None, :], jnp.inf)  # (source, bee)
         best_bee = jnp.argmin(per_source, axis=1)
         cand_f = per_source[idx, best_bee]
@@ -74,10 +74,10 @@ class ABC(Strategy):
         worst = jnp.argmax(trials)
         scout = trials[worst] > self.limit
         x_new = jax.random.uniform(ks, (1, pop.shape[1]))
-        f_new, fes_scout = evaluate(fn, x_new, fes, budget)
-        do = scout & (fes < budget)
+        f_new, x_new, scouted = evaluate(fn, x_new, state, budget)
+        do = scout & (state.fes < budget)
         pop = pop.at[worst].set(jnp.where(do, x_new[0], pop[worst]))
         fit = fit.at[worst].set(jnp.where(do, f_new[0], fit[worst]))
         trials = trials.at[worst].set(jnp.where(do, 0, trials[worst]))
-        fes = jnp.where(do, fes_scout, fes)
-        return State(pop, fit, state.best_x, state.best_f, fes, aux=trials)
+        state = jax.tree.map(lambda a, b: jnp.where(do, a, b), scouted, state)
+        return state.replace(pop=pop, fit=fit, aux=trials)

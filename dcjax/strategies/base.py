@@ -2,6 +2,7 @@
 compiled run loop. Strategies search the unit cube [0, 1]^D; `Bounds.to_physical` maps it onto
 the paper's limits (Tables 4 and 8)."""
 
+import dataclasses
 from collections.abc import Callable
 
 import equinox as eqx
@@ -9,12 +10,16 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
+from .compact import compacted
+from .memory import Memory
+
 FitnessFn = Callable[[Float[Array, "P D"]], Float[Array, " P"]]
 
 
 class State(eqx.Module):
     """Population `pop` (P, D) in the unit cube, its objective values `fit`, the best point
-    seen, the fitness evaluations spent and a strategy-specific `aux` pytree."""
+    seen, the fitness evaluations really made (`fes`), the candidates answered from memory
+    (`dups`), a strategy-specific `aux` pytree and the optional `memory` (`Memory`)."""
 
     pop: Float[Array, "P D"]
     fit: Float[Array, " P"]
@@ -22,6 +27,11 @@ class State(eqx.Module):
     best_f: Float[Array, ""]
     fes: Int[Array, ""]
     aux: PyTree = None
+    dups: Int[Array, ""] | None = None
+    memory: Memory | None = None
+
+    def replace(self, **changes) -> "State":
+        return dataclasses.replace(self, **changes)
 
 
 def finite_or_inf(f: Array) -> Array:
@@ -29,19 +39,35 @@ def finite_or_inf(f: Array) -> Array:
     return jnp.where(jnp.isfinite(f), f, jnp.inf)
 
 
-def evaluate(fn: FitnessFn, z: Float[Array, "P D"], fes: Int[Array, ""], budget: int):
-    """Evaluate `z`, spending at most the remaining budget: candidates past it get +inf (never
-    accepted) and are not counted. Returns (fitness, fes after)."""
-    allowed = fes + jnp.arange(z.shape[0]) < budget
-    f = jnp.where(allowed, finite_or_inf(fn(z)), jnp.inf)
-    return f, fes + jnp.sum(allowed)
+def evaluate(fn: FitnessFn, z: Float[Array, "P D"], state: State, budget: int) -> tuple[Float[Array, " P"], Float[Array, "P D"], State]:
+    """Evaluate candidates `z`, spending at most the remaining budget: candidates past it get
+    +inf (never accepted) and are not counted. With `state.memory`, a candidate within precision
+    of a record takes the record's x and OF and is not simulated (`compacted`); only real
+    evaluations count as FEs, and LTMA stores every evaluated non-duplicate.
+
+    Returns (fitness, candidates (duplicates replaced by their records), state with `fes`,
+    `dups` and `memory` advanced)."""
+    mem = state.memory
+    if mem is None:
+        allowed = state.fes + jnp.arange(z.shape[0]) < budget
+        f = jnp.where(allowed, finite_or_inf(fn(z)), jnp.inf)
+        return f, z, state.replace(fes=state.fes + jnp.sum(allowed))
+    found, x_rec, f_rec, mem = mem.lookup(z)
+    need = ~found
+    allowed = need & (state.fes + jnp.cumsum(need) <= budget)
+    f_new = finite_or_inf(compacted(fn)(z, allowed))
+    f = jnp.where(found, f_rec, jnp.where(allowed, f_new, jnp.inf))
+    z = jnp.where(found[:, None], x_rec, z)
+    mem = mem.add(z, f_new, allowed)
+    return f, z, state.replace(fes=state.fes + jnp.sum(allowed), dups=state.dups + jnp.sum(found), memory=mem)
 
 
 def initial_state(key: PRNGKeyArray, fn: FitnessFn, budget: int, n: int, dim: int, init: str, aux: PyTree = None) -> State:
     """A random population of `n` (see `uniform_population`), evaluated within the budget."""
     pop = uniform_population(key, n, dim, init)
-    fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
-    return State(pop, fit, pop[0], jnp.asarray(jnp.inf), fes, aux)
+    allowed = jnp.arange(n) < budget
+    fit = jnp.where(allowed, finite_or_inf(fn(pop)), jnp.inf)
+    return State(pop, fit, pop[0], jnp.asarray(jnp.inf), jnp.sum(allowed), aux, jnp.asarray(0))
 
 
 def with_best(state: State) -> State:
@@ -129,22 +155,53 @@ class Strategy(eqx.Module):
 
 
 class RunOutput(eqx.Module):
-    """One run: best point (unit cube), its OF, FEs spent, iterations done and the best OF
-    after each iteration (`history[k]`; NaN past the last iteration)."""
+    """One run: best point (unit cube), its OF, FEs really spent, iterations done, the best OF
+    after each iteration (`history[k]`; NaN past the last iteration), candidates answered from
+    memory (`dups`) and memory chunks searched (`chunks`; 0 without memory)."""
 
     best_x: Float[Array, " D"]
     best_f: Float[Array, ""]
     fes: Int[Array, ""]
     iterations: Int[Array, ""]
     history: Float[Array, " T"]
+    dups: Int[Array, ""]
+    chunks: Int[Array, ""]
 
 
-def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: int = 7) -> RunOutput:
-    """The whole run as one `lax.while_loop`: init, then steps while budget is left."""
-    t_max = max(1, strategy.max_iterations(budget))
+MEMORY_ITERATION_FACTOR = 20
+
+
+def run(
+    strategy: Strategy,
+    key: PRNGKeyArray,
+    fn: FitnessFn,
+    budget: int,
+    dim: int = 7,
+    memory: str | None = None,
+    precision: Float[Array, " D"] | None = None,
+    generations: int | None = None,
+    capacity: int | None = None,
+) -> RunOutput:
+    """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
+    `generations`, at most that many iterations.
+
+    `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`; see `Memory`) with `precision` in unit-cube
+    units. Duplicates cost no FEs, so a budget lasts longer: without `generations` a run with
+    memory stops at the budget or at `MEMORY_ITERATION_FACTOR` x the memory-free iteration count.
+    The LTMA history holds `capacity` records (default: budget + one population)."""
+    if generations is not None:
+        t_max = int(generations)
+    else:
+        t_max = max(1, strategy.max_iterations(budget)) * (1 if memory is None else MEMORY_ITERATION_FACTOR)
     k_init, k_run = jax.random.split(key)
     state = with_best(strategy.init(k_init, fn, budget, dim))
-    history = jnp.full((t_max,), jnp.nan)
+    if memory is not None:
+        if precision is None:
+            raise ValueError("memory needs a precision vector (unit-cube units)")
+        evaluated = jnp.arange(state.pop.shape[0]) < state.fes
+        cap = capacity if capacity is not None else budget + strategy.pop_size
+        state = state.replace(memory=Memory.create(memory, precision, state.pop, state.fit, evaluated, cap))
+    history = jnp.full((max(1, t_max),), jnp.nan)
 
     def cond(carry):
         state, it, _ = carry
@@ -153,7 +210,10 @@ def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: 
     def body(carry):
         state, it, history = carry
         state = with_best(strategy.step(jax.random.fold_in(k_run, it), state, fn, budget))
+        if state.memory is not None:
+            state = state.replace(memory=state.memory.refresh(state.pop, state.fit))
         return state, it + 1, history.at[it].set(state.best_f)
 
     state, it, history = jax.lax.while_loop(cond, body, (state, jnp.asarray(0), history))
-    return RunOutput(state.best_x, state.best_f, state.fes, it, history)
+    chunks = jnp.asarray(0) if state.memory is None else state.memory.chunks
+    return RunOutput(state.best_x, state.best_f, state.fes, it, history, state.dups, chunks)

@@ -57,9 +57,9 @@ class _DE(Strategy):
         km, kc, kb = jax.random.split(key, 3)
         trial = self.crossover(kc, state.pop, self.mutant(km, state))
         trial = apply_bounds(kb, trial, self.bounds_rule, state.pop)
-        trial_fit, fes = evaluate(fn, trial, state.fes, budget)
+        trial_fit, trial, state = evaluate(fn, trial, state, budget)
         pop, fit, _ = greedy(state.pop, state.fit, trial, trial_fit)
-        return State(pop, fit, state.best_x, state.best_f, fes)
+        return state.replace(pop=pop, fit=fit)
 
 
 class DERand1Exp(_DE):

@@ -10,7 +10,7 @@ import evosax.algorithms as ea
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, evaluate, uniform_population
+from .base import State, Strategy, evaluate, initial_state
 
 
 def evosax_names() -> list[str]:
@@ -53,14 +53,12 @@ class Evosax(Strategy):
         params = self._params(algo)
         k1, k2 = jax.random.split(key)
         if self_is_pop(algo):
-            pop = uniform_population(k1, self.pop_size, dim)
-            fit, fes = evaluate(fn, pop, jnp.asarray(0), budget)
-            es = algo.init(k2, pop, fit, params)
-            best = jnp.argmin(fit)
-            return State(pop, fit, pop[best], fit[best], fes, aux=es)
+            state = initial_state(k1, fn, budget, self.pop_size, dim, "uniform")
+            es = algo.init(k2, state.pop, state.fit, params)
+            return state.replace(aux=es)
         es = algo.init(k2, jnp.full(dim, 0.5), params)
         pop = jnp.full((self.pop_size, dim), 0.5)
-        return State(pop, jnp.full(self.pop_size, jnp.inf), pop[0], jnp.asarray(jnp.inf), jnp.asarray(0), aux=es)
+        return State(pop, jnp.full(self.pop_size, jnp.inf), pop[0], jnp.asarray(jnp.inf), jnp.asarray(0), es, jnp.asarray(0))
 
     def step(self, key, state, fn, budget) -> State:
         algo = self._algo(state.pop.shape[1])
@@ -68,9 +66,9 @@ class Evosax(Strategy):
         ka, kt = jax.random.split(key)
         x, es = algo.ask(ka, state.aux, params)
         x = jnp.clip(x, 0.0, 1.0)
-        fit, fes = evaluate(fn, x, state.fes, budget)
+        fit, x, state = evaluate(fn, x, state, budget)
         es, _ = algo.tell(kt, x, fit, es, params)
-        return State(x, fit, state.best_x, state.best_f, fes, aux=es)
+        return state.replace(pop=x, fit=fit, aux=es)
 
 
 def self_is_pop(algo) -> bool:

@@ -57,5 +57,5 @@ class GA(Strategy):
         flat = jax.random.choice(km, (n - 1) * d, (n_mut,), replace=False) + d  # skip row 0 (elite)
         mask = jnp.zeros(n * d, bool).at[flat].set(True).reshape(n, d)
         pop = jnp.where(mask, jax.random.uniform(kv, (n, d)), pop)
-        fit, fes = evaluate(fn, pop, state.fes, budget)
-        return State(pop, fit, state.best_x, state.best_f, fes)
+        fit, pop, state = evaluate(fn, pop, state, budget)
+        return state.replace(pop=pop, fit=fit)

@@ -31,12 +31,12 @@ class TLBO(Strategy):
         tf = jax.random.randint(kt, (), 1, 3).astype(pop.dtype)
         new = pop + jax.random.uniform(kr1, (n, d)) * (teacher - tf * pop.mean(axis=0))
         new = apply_bounds(kb1, new, self.bounds_rule, pop)
-        new_fit, fes = evaluate(fn, new, state.fes, budget)
+        new_fit, new, state = evaluate(fn, new, state, budget)
         pop, fit, _ = greedy(pop, fit, new, new_fit)
         partner = distinct_indices(kp, n, jnp.arange(n), 1)[:, 0]
         xj, fj = pop[partner], fit[partner]
         direction = jnp.where((fit < fj)[:, None], pop - xj, xj - pop)
         new = apply_bounds(kb2, pop + jax.random.uniform(kr2, (n, d)) * direction, self.bounds_rule, pop)
-        new_fit, fes = evaluate(fn, new, fes, budget)
+        new_fit, new, state = evaluate(fn, new, state, budget)
         pop, fit, _ = greedy(pop, fit, new, new_fit)
-        return State(pop, fit, state.best_x, state.best_f, fes)
+        return state.replace(pop=pop, fit=fit)

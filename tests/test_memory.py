@@ -52,10 +52,11 @@ def test_bucket_sizes():
 
 
 def _counting(fn, rows):
-    """`fn` that reports at run time how many rows it was handed."""
+    """`fn` that reports at run time how many rows it was handed (`rows` gets their count per
+    call; a vmapped call reports once per row, so compare sums)."""
 
     def counted(z):
-        jax.debug.callback(lambda n: rows.append(int(n)), z.shape[0])
+        jax.debug.callback(lambda x: rows.append(int(np.size(x))), z[:, 0])
         return fn(z)
 
     return counted
@@ -76,7 +77,7 @@ def test_compacted_skips_work_and_matches_fn():
         np.testing.assert_allclose(f[a], full[a], rtol=1e-15)
         assert np.all(np.isinf(f[~a]))
         expected = min([s for s in bucket_sizes(70) if s >= k])
-        assert rows == ([expected] if expected else []), (k, rows)
+        assert sum(rows) == expected, (k, rows)
 
 
 def test_compacted_batches_across_runs():
@@ -90,7 +91,7 @@ def test_compacted_batches_across_runs():
     a = np.asarray(active)
     np.testing.assert_allclose(f[a], np.asarray(z).sum(-1)[a], rtol=1e-15)
     assert np.all(np.isinf(f[~a]))
-    assert rows == [min(s for s in bucket_sizes(560) if s >= a.sum())]
+    assert sum(rows) == min(s for s in bucket_sizes(560) if s >= a.sum())
 
 
 def test_forced_duplicate_is_not_simulated():
@@ -110,7 +111,7 @@ def test_forced_duplicate_is_not_simulated():
         rows.clear()
         f, z_out, new = jax.jit(lambda z, s: evaluate(fn, z, s, 10_000))(z, state)
         jax.effects_barrier()
-        assert rows == [5], (kind, rows)  # smallest bucket, one live row
+        assert sum(rows) == 5, (kind, rows)  # smallest bucket, one live row
         assert int(new.fes) == 71 and int(new.dups) == 69
         dup = np.arange(70) != 5
         np.testing.assert_array_equal(np.asarray(z_out)[dup], np.asarray(pop)[dup])  # the record's x ...

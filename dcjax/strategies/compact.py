@@ -46,21 +46,39 @@ def _bucketed(fn, z: Float[Array, "N D"], active: Bool[Array, " N"]) -> Float[Ar
 
 def compacted(fn):
     """`g(z, active)`: `fn(z)` on the rows where `active`, +inf elsewhere, with the work done only
-    for (a bucket just larger than) the active rows; batched calls compact across the batch."""
+    for (a bucket just larger than) the active rows; batched calls compact across the batch.
 
+    Values `fn` closes over (recording data traced by an outer `jit`) are passed explicitly
+    (`jax.closure_convert`); if they are themselves batched (one recording per batch member, as
+    in `identify_fleet`), members cannot share a simulation and the batch is evaluated whole."""
+
+    def call(z, active):
+        # Convert for one row, then vmap it over however many rows a bucket holds.
+        one, consts = jax.closure_convert(fn, z[:1])
+        rows = jax.vmap(lambda x, *c: one(x[None], *c)[0], in_axes=(0,) + (None,) * len(consts))
+        return _compacted(rows)(z, active, *consts)
+
+    return call
+
+
+def _compacted(fn):
     @jax.custom_batching.custom_vmap
-    def g(z, active):
-        return _bucketed(fn, z, active)
+    def g(z, active, *consts):
+        return _bucketed(lambda x: fn(x, *consts), z, active)
 
     @g.def_vmap
-    def _rule(axis_size, in_batched, z, active):
-        z_b, a_b = in_batched
+    def _rule(axis_size, in_batched, z, active, *consts):
+        z_b, a_b, *c_b = in_batched
+        if any(c_b):
+            axes = (0 if z_b else None, 0 if a_b else None, *(0 if b else None for b in c_b))
+            whole = jax.vmap(lambda z, a, *c: jnp.where(a, fn(z, *c), jnp.inf), in_axes=axes, axis_size=axis_size)
+            return whole(z, active, *consts), True
         if not z_b:
             z = jnp.broadcast_to(z, (axis_size,) + z.shape)
         if not a_b:
             active = jnp.broadcast_to(active, (axis_size,) + active.shape)
         b, n = active.shape
-        f = g(z.reshape((b * n,) + z.shape[2:]), active.reshape(b * n))  # nested vmaps flatten again
+        f = g(z.reshape((b * n,) + z.shape[2:]), active.reshape(b * n), *consts)  # nested vmaps flatten again
         return f.reshape(b, n), True
 
     return g

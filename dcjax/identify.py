@@ -5,6 +5,7 @@ with an optional Levenberg–Marquardt polish, and the result object (paper Sect
 import dataclasses
 import json
 import time
+from collections import OrderedDict
 from pathlib import Path
 
 import equinox as eqx
@@ -170,7 +171,12 @@ def _run_keys(seed: int, runs: int):
     return keys, n_dev, mesh
 
 
-_COMPILED: dict = {}  # executables by (strategy, settings, argument shapes): cells of a sweep reuse them
+# The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
+# (other weights, bounds or recordings of equal length) reuse them. Bounded: every XLA CPU
+# executable holds memory mappings, and a process that kept ~180 of them hit the kernel's
+# mapping limit (LLVM "Cannot allocate memory") during the full reproduction.
+_COMPILED: OrderedDict = OrderedDict()
+_COMPILED_MAX = 4
 
 
 def _batched_runs(strategy, budget, memory, generations, jw, mesh):
@@ -282,9 +288,13 @@ def identify(
                  tuple((x.shape, x.dtype) for x in jax.tree.leaves(args)))
     t0 = time.perf_counter()
     compiled = _COMPILED.get(cache_key)
+    reused = compiled is not None
     if compiled is None:
         compiled = _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh).lower(*args).compile()
         _COMPILED[cache_key] = compiled
+        while len(_COMPILED) > _COMPILED_MAX:
+            _COMPILED.popitem(last=False)
+    _COMPILED.move_to_end(cache_key)
     t1 = time.perf_counter()
     out = jax.block_until_ready(compiled(*args))
     t2 = time.perf_counter()
@@ -335,7 +345,7 @@ def identify(
         iterations=np.asarray(out.iterations),
         history=np.asarray(out.history),
         settings=settings,
-        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": n_dev},  # compile_s ~0: reused executable
+        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": n_dev, "reused_executable": reused},
         polish=polish_info,
         dups=None if memory is None else np.asarray(out.dups),
         memory_chunks=None if memory is None else np.asarray(out.chunks),

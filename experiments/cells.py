@@ -105,6 +105,11 @@ class Store:
 
     def append(self, lines: list[dict]) -> None:
         data = "".join(json.dumps(x) + "\n" for x in lines).encode()
+        if self.path.is_file() and self.path.stat().st_size:
+            with open(self.path, "rb") as f:
+                f.seek(-1, os.SEEK_END)
+                if f.read(1) != b"\n":  # a write torn by a kill: start on a fresh line
+                    data = b"\n" + data
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
         try:
             os.write(fd, data)

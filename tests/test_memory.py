@@ -205,3 +205,25 @@ def test_table29_rule_and_unit_precision():
     np.testing.assert_allclose(load_torque_precision(1e-3, 209.0, 1e-3, 1e-3, 1e-3, 1e-4)[5:], [4.78e-6, 2.29e-8], rtol=1e-2)
     u = unit_precision(None, TABLE8)
     np.testing.assert_allclose(u * np.asarray(TABLE8.upper - TABLE8.lower), TABLE29)
+
+
+def test_cli_memory(tmp_path, capsys):
+    import json
+    from pathlib import Path
+
+    from dcjax.cli import main
+
+    data = Path(__file__).resolve().parent.parent / "data" / "MD1.csv"
+    rc = main(["fit", str(data), "--runs", "2", "--budget", "7000", "--memory", "ltma-s2", "--generations", "30", "--out", str(tmp_path)])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "memory ltma-s2:" in out and "% of candidates answered from memory" in out
+    d = json.loads((tmp_path / "result.json").read_text())
+    assert d["settings"]["memory"] == "ltma-s2" and all(r["iterations"] == 30 for r in d["runs"])
+
+
+def test_cli_rejects_unknown_memory():
+    from dcjax.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["fit", "SD1", "--memory", "ltma"])

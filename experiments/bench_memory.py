@@ -40,7 +40,7 @@ def main():
             z = jax.random.uniform(jax.random.PRNGKey(0), (batch, 70, 7))
             full = jax.jit(jax.vmap(fn))
             t_full = best_of(full, z)
-            line = f"RK{'' if nd == 1 else nd:<3s} runs {batch:2d}: full {1e3 * t_full:7.3f} ms |"
+            line = f"RK{'' if nd == 1 else str(nd):<3s} runs {batch:2d}: full {1e3 * t_full:7.3f} ms |"
             comp = jax.jit(jax.vmap(compacted(fn)))
             for frac in (1.0, 0.5, 0.2, 0.05, 0.0):
                 active = jax.random.uniform(jax.random.PRNGKey(1), (batch, 70)) < frac

@@ -172,9 +172,10 @@ def _run_keys(seed: int, runs: int):
 
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
-# (other weights, bounds or recordings of equal length) reuse them. Bounded: every XLA CPU
-# executable holds memory mappings, and a process that kept ~180 of them hit the kernel's
-# mapping limit (LLVM "Cannot allocate memory") during the full reproduction.
+# (other weights, bounds or recordings of equal length) reuse them. Bounded, and JAX's caches are
+# cleared after each compilation: every XLA CPU executable holds memory mappings (~450-750 per
+# `identify` here), and a process that kept them all hit the kernel's mapping limit
+# (vm.max_map_count, LLVM "Cannot allocate memory") after ~170 cells of the full reproduction.
 _COMPILED: OrderedDict = OrderedDict()
 _COMPILED_MAX = 4
 
@@ -294,6 +295,9 @@ def identify(
         _COMPILED[cache_key] = compiled
         while len(_COMPILED) > _COMPILED_MAX:
             _COMPILED.popitem(last=False)
+        # JAX's own caches keep what tracing and lowering this one-off function made; with a
+        # fresh function per call they are never hit again and only hold memory mappings.
+        jax.clear_caches()
     _COMPILED.move_to_end(cache_key)
     t1 = time.perf_counter()
     out = jax.block_until_ready(compiled(*args))

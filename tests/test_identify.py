@@ -154,3 +154,18 @@ def test_cli_module_entry_bad_file(tmp_path):
     bad.write_text("t,u_a,i_a,omega\n0,1,0,0\n0.1,1,0,0\n0.2,1,0,0\n")
     p = subprocess.run([sys.executable, "-m", "dcjax", "fit", str(bad)], capture_output=True, text=True)
     assert p.returncode != 0 and "all zero" in p.stderr and "Traceback" not in p.stderr
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs Linux /proc")
+def test_repeated_identify_does_not_accumulate_memory_mappings(sd1):
+    """Each compiled executable holds memory mappings; a long sweep of `identify` calls must not
+    keep them all (the kernel limit, vm.max_map_count, ended a full reproduction once)."""
+
+    def maps():
+        return sum(1 for _ in open("/proc/self/maps"))
+
+    counts = []
+    for k, method in enumerate(["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin", "de-rand-1-exp", "tlbo", "abc"]):
+        identify(sd1, method=method, runs=1, budget=140, seed=k, pop_size=70 - (k >= 5))  # 8 distinct executables
+        counts.append(maps())
+    assert counts[-1] - counts[3] < 600, counts  # without clearing JAX's caches: ~450 more per call

@@ -56,6 +56,11 @@ class Results:
         self.cells = Store(store).cells()
         self.p = profile
         self.seed = seed
+        self.report_dir = Path(".")
+
+    def link(self, path: Path) -> str:
+        """A figure's path as the report links it: relative to the report's folder."""
+        return os.path.relpath(path, self.report_dir).replace(os.sep, "/")
 
     def get(self, data, method="de-rand-1-exp", variant="RK", w=(1.0, 1.0), memory=None, runs=None, generations=None):
         integ, nd = VARIANTS[variant]
@@ -114,9 +119,9 @@ def section_table5(R: Results, L: list[str]):
     if "SD1" in sds:
         rows = []
         truth = recording("SD1").metadata["true_params"]
-        for k, n in enumerate(PARAM_NAMES):
+        for n in PARAM_NAMES:
             row = [n, g(truth[n])]
-            for j, m in enumerate(R.p["methods"]):
+            for m in R.p["methods"]:
                 r = R.get("SD1", m)
                 row.append(f"{g(r['mean'][n])} / {g(PAPER['table6']['rows'][n][list(METHOD_NAMES).index(m)])}")
             rows.append(row)
@@ -387,16 +392,8 @@ def section_memory(R: Results, L: list[str], figures: Path):
         rows = [[d, v, m, f"{1e6 * t:.2f}", f"{1e6 * h:.2f}"] for d, v, m, t, h in fig_rows]
         L += ["<!-- times -->", "**Fig. 25 analogue** (µs; OF time per FE = memory-free run time / FEs; handling = "
               "(run time with memory − FEs × OF time) / candidates, derived, not timed separately): "
-              f"[fig25_memory_times.png]({rel_to_report(figures / 'fig25_memory_times.png')})", ""]
+              f"[fig25_memory_times.png]({R.link(figures / 'fig25_memory_times.png')})", ""]
         L += table(["data", "variant", "memory", "OF per FE", "handling per candidate"], rows) + ["<!-- /times -->", ""]
-
-
-def rel_to_report(path: Path) -> str:
-    """A figure's path as the report links it: relative to the report's folder."""
-    return os.path.relpath(path, REPORT_DIR[0]).replace(os.sep, "/")
-
-
-REPORT_DIR = [Path(".")]
 
 
 def response_figures(R: Results, L: list[str], figures: Path):
@@ -441,7 +438,7 @@ def response_figures(R: Results, L: list[str], figures: Path):
             fig(f"fig{13 + int(d[-1]) - 1:02d}_crossval_{d.lower()}.png", f"Figs. 13–15 analogue: {d} simulated with each RK fit",
                 recording(d), [(f"fit {e}", R.get(e, "de-rand-1-exp", "RK")["best"], "rk4", 1) for e in cv])
     if made:
-        L += ["## Figures", ""] + [f"- [{t}]({rel_to_report(figures / n)})" for n, t in made] + [""]
+        L += ["## Figures", ""] + [f"- [{t}]({R.link(figures / n)})" for n, t in made] + [""]
 
 
 def infer_profile(store) -> dict:
@@ -475,7 +472,7 @@ def write_report(store, out, figures, cfg: dict | None = None) -> str:
     profile = cfg.get("profile") or infer_profile(store)
     R = Results(store, profile, int(cfg.get("seed", 0)))
     figures = Path(figures)
-    REPORT_DIR[0] = Path(out).resolve().parent
+    R.report_dir = Path(out).resolve().parent
     figures = figures.resolve()
     n_runs = sum(len(e["runs"]) for e in R.cells.values())
     run_s = sum(e["meta"]["run_s"] + e["meta"]["compile_s"] for e in R.cells.values())

@@ -24,14 +24,18 @@ SD_VOLTAGE = 220.0
 SD_DT = 1e-4
 SD_STEPS = 500
 
-DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+# Shipped inside the package (so an installed dcjax runs `dcjax fit MD1`); the repository's
+# top-level data/ holds the same files beside their generators (tests check they are identical).
+DATA_DIR = Path(__file__).resolve().parent / "data"
+MD_NAMES = ("MD1", "MD2", "MD3", "MD4")
+EMBEDDED = tuple(SD_PARAMS) + MD_NAMES
 
 
 def true_params(name: str) -> dict[str, float]:
     """Table 3 parameters of SD1–SD4."""
     key = name.upper()
     if key not in SD_PARAMS:
-        raise ValueError(f"unknown data set {name!r}; embedded ones are {sorted(SD_PARAMS)}")
+        raise ValueError(f"unknown data set {name!r}; the simulated ones are {sorted(SD_PARAMS)}")
     return dict(SD_PARAMS[key])
 
 
@@ -54,13 +58,21 @@ def generate_sd(name: str) -> Recording:
 
 
 def load(name: str) -> Recording:
-    """An embedded data set by name (`"SD1"` … `"SD4"`): `data/NAME.csv` of this checkout,
-    or, where the package is installed without the data folder, regenerated (the two are
-    byte-identical, see tests/test_datasets.py)."""
+    """An embedded data set by name (`"SD1"` … `"SD4"`, `"MD1"` … `"MD4"`): the file shipped in
+    the package, or, where it is missing, regenerated (the two are byte-identical, see the tests)."""
     key = name.upper()
-    true_params(key)
+    if key not in EMBEDDED:
+        raise ValueError(f"unknown data set {name!r}; embedded ones are {', '.join(EMBEDDED)}")
     path = DATA_DIR / f"{key}.csv"
-    return load_csv(path) if path.is_file() else generate_sd(key)
+    if path.is_file():
+        rec = load_csv(path)
+    elif key in SD_PARAMS:
+        rec = generate_sd(key)
+    else:
+        from .emulate import emulate, md_settings
+
+        rec = emulate(md_settings(key))
+    return rec.replace(metadata={**rec.metadata, "source": {"embedded": key, "name": key}})
 
 
 def write_or_check(makers: dict, folder: Path, check: bool) -> int:

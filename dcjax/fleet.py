@@ -14,30 +14,28 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from .identify import _resolve_bounds
+from .bounds import resolve_bounds
+from .models import get_model
 from .objectives import objective
-from .params import PARAM_NAMES, Params
 from .problem import make_problem
 from .recording import Recording
+from .runner import fold_keys, mesh_of, padded_size, shard
+from .space import make_space
 from .strategies import make_strategy, run
 
 
 @dataclasses.dataclass
 class FleetResult:
-    params: np.ndarray  # (M, 7) best of each motor's runs
+    params: np.ndarray  # (M, P) best of each motor's runs
     of: np.ndarray  # (M,)
     fes: np.ndarray  # (M, runs)
     timing: dict
     settings: dict
+    names: tuple[str, ...] = ()
 
     def to_dicts(self) -> list[dict[str, float]]:
-        return [dict(zip(PARAM_NAMES, map(float, x))) for x in self.params]
-
-
-def _global_array(host: np.ndarray, sharding) -> jax.Array:
-    return jax.make_array_from_callback(host.shape, sharding, lambda idx: host[idx])
+        return [dict(zip(self.names, map(float, x))) for x in self.params]
 
 
 def identify_fleet(
@@ -45,13 +43,15 @@ def identify_fleet(
     method: str = "de-rand-1-exp",
     integrator: str = "rk4",
     nd: int = 1,
-    weights: tuple[float, float] = (1.0, 1.0),
+    weights: tuple[float, ...] | None = None,
     bounds=None,
     runs: int = 1,
     budget: int = 140_000,
     seed: int = 0,
     pop_size: int = 70,
     devices: list | None = None,
+    model=None,
+    fixed: dict[str, float] | None = None,
 ) -> FleetResult:
     """One identification per recording (motor), all in one sharded call. Motor m, run r uses
     key fold_in(fold_in(PRNGKey(seed), m), r), so results do not depend on the device count."""
@@ -62,35 +62,28 @@ def identify_fleet(
         raise ValueError(f"fleet recordings must have equal length, got lengths {sorted(n)}")
     if {r.i_a_limit is None for r in recordings} == {True, False}:
         raise ValueError("either every recording of a fleet has a current limit or none has")
-    if not isinstance(runs, int) or runs < 1:
+    if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
-    b = _resolve_bounds(bounds)
+    model = get_model(model)
+    space = make_space(model, resolve_bounds(model, bounds), fixed)
     strategy = make_strategy(method, pop_size=pop_size)
-    problems = [make_problem(r, integrator=integrator, nd=nd, weights=weights) for r in recordings]
+    problems = [make_problem(r, model=model, integrator=integrator, nd=nd, weights=weights) for r in recordings]
     devices = devices or jax.devices()
-    n_dev = len(devices)
     m = len(recordings)
-    padded = -(-m // n_dev) * n_dev
+    padded = padded_size(m, devices)
     problems += [problems[-1]] * (padded - m)
     stacked = jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *problems)
-    base = jax.random.PRNGKey(seed)
-    keys = np.asarray(
-        jax.vmap(lambda i: jax.vmap(lambda r: jax.random.fold_in(jax.random.fold_in(base, i), r))(jnp.arange(runs)))(
-            jnp.arange(padded)
-        )
-    )
-    mesh = Mesh(np.array(devices), ("fleet",))
-    shard = NamedSharding(mesh, PartitionSpec("fleet"))
+    mesh = mesh_of(devices, "fleet")
     arrays, static = eqx.partition(stacked, eqx.is_array)
-    arrays = jax.tree.map(lambda a: _global_array(a, shard), arrays)
-    keys = _global_array(keys, shard)
+    arrays = jax.tree.map(lambda a: shard(a, mesh, "fleet"), arrays)
+    keys = shard(np.asarray(fold_keys(seed, padded, runs)), mesh, "fleet")
 
     def motor(prob_arrays, motor_keys):
         prob = eqx.combine(prob_arrays, static)
-        fn = lambda z: objective(Params.from_array(b.to_physical(z)), prob)  # noqa: E731
-        out = jax.vmap(lambda k: run(strategy, k, fn, budget))(motor_keys)
+        fn = lambda z: objective(space.to_physical(z), prob)  # noqa: E731
+        out = jax.vmap(lambda k: run(strategy, k, fn, budget, space.dim))(motor_keys)
         best = jnp.argmin(out.best_f)
-        return b.to_physical(out.best_x[best]), out.best_f[best], out.fes
+        return space.to_physical(out.best_x[best]), out.best_f[best], out.fes
 
     batched = jax.jit(jax.vmap(motor))
     t0 = time.perf_counter()
@@ -103,7 +96,8 @@ def identify_fleet(
         params=x,
         of=f,
         fes=fes,
-        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": n_dev, "motors_per_s": m / (t2 - t1)},
+        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": len(devices), "motors_per_s": m / (t2 - t1)},
         settings={"method": method, "integrator": integrator, "nd": nd, "runs": runs, "budget": budget, "seed": seed,
-                  "pop_size": pop_size, "motors": m},
+                  "pop_size": pop_size, "motors": m, "model": model.name, "fixed": space.fixed},
+        names=model.names,
     )

@@ -1,6 +1,6 @@
 """Euler (eq. 11–12) and classic RK4 (eq. 14–23) marched over the sample grid with
-`jax.lax.scan`, with ND sub-steps per interval (eq. 28), linear voltage interpolation
-(eq. 29) and the supply's current limit (Section 4, Fig. 4)."""
+`jax.lax.scan`, with ND sub-steps per interval (eq. 28), linear input interpolation (eq. 29)
+and the supply's limit on one state (Section 4, Fig. 4). Generic over the `Model`."""
 
 from collections.abc import Callable
 
@@ -8,76 +8,95 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .model import Coefficients, vector_field
-from .params import Params
 from .problem import Problem
 
+State = tuple[Array, ...]
 
-def euler_step(k: Coefficients, i, w, h, u0, u_half, u1):
+
+def _axpy(y: State, h, k: State) -> State:
+    return tuple(a + h * b for a, b in zip(y, k))
+
+
+def euler_step(model, c, y: State, h, u0, u_half, u1) -> State:
     """Eq. 11–12: y(k+1) = y(k) + h f(t(k), y(k)); u at the start of the step."""
-    di, dw = vector_field(k, u0, i, w)
-    return i + h * di, w + h * dw
+    return _axpy(y, h, model.vector_field(c, u0, y))
 
 
-def rk4_step(k: Coefficients, i, w, h, u0, u_half, u1):
+def rk4_step(model, c, y: State, h, u0, u_half, u1) -> State:
     """Eq. 14–23: classic RK4 with u at t, t + h/2 (interpolated) and t + h."""
     hh = 0.5 * h
-    k1, l1 = vector_field(k, u0, i, w)
-    k2, l2 = vector_field(k, u_half, i + hh * k1, w + hh * l1)
-    k3, l3 = vector_field(k, u_half, i + hh * k2, w + hh * l2)
-    k4, l4 = vector_field(k, u1, i + h * k3, w + h * l3)
+    k1 = model.vector_field(c, u0, y)
+    k2 = model.vector_field(c, u_half, _axpy(y, hh, k1))
+    k3 = model.vector_field(c, u_half, _axpy(y, hh, k2))
+    k4 = model.vector_field(c, u1, _axpy(y, h, k3))
     h6 = h / 6.0
-    return i + h6 * (k1 + 2.0 * (k2 + k3) + k4), w + h6 * (l1 + 2.0 * (l2 + l3) + l4)
+    return tuple(a + h6 * (q1 + 2.0 * (q2 + q3) + q4) for a, q1, q2, q3, q4 in zip(y, k1, k2, k3, k4))
 
 
 STEPS: dict[str, Callable] = {"euler": euler_step, "rk4": rk4_step}
 
 
-def advance(k: Coefficients, problem: Problem, i, w, h, ua, ub):
-    """One sample interval: `nd` equal sub-steps (eq. 28) with u linearly interpolated from
-    `ua` to `ub` (eq. 29); after every computed current, |i| is clamped to the limit."""
+def _lerp(ua, ub, s):
+    return tuple(a + (b - a) * s for a, b in zip(ua, ub))
+
+
+def advance(c, problem: Problem, y: State, h, ua: State, ub: State) -> State:
+    """One sample interval: `nd` equal sub-steps (eq. 28) with the inputs linearly interpolated
+    from `ua` to `ub` (eq. 29); after every sub-step the limited state is clamped."""
+    model = problem.model
     step = STEPS[problem.integrator]
     nd = problem.nd
-    limit = problem.i_limit
-
-    def clamp(i):
-        return i if limit is None else jnp.clip(i, -limit, limit)
-
+    limit = problem.limit
     if nd == 1:
-        i, w = step(k, i, w, h, ua, 0.5 * (ua + ub), ub)
-        return clamp(i), w
+        u_half = tuple(0.5 * (a + b) for a, b in zip(ua, ub))
+        return model.clamp(step(model, c, y, h, ua, u_half, ub), limit)
 
     hs = h / nd
-    du = (ub - ua) / nd
+    du = tuple((b - a) / nd for a, b in zip(ua, ub))
 
-    def sub(j, carry):
-        i, w = carry
-        u0 = ua + du * j
-        i, w = step(k, i, w, hs, u0, u0 + 0.5 * du, u0 + du)
-        return clamp(i), w
+    def sub(j, y):
+        u0 = tuple(a + d * j for a, d in zip(ua, du))
+        u_half = tuple(a + 0.5 * d for a, d in zip(u0, du))
+        u1 = tuple(a + d for a, d in zip(u0, du))
+        return model.clamp(step(model, c, y, hs, u0, u_half, u1), limit)
 
-    return jax.lax.fori_loop(0, nd, sub, (i, w))
-
-
-def _initial_state(params: Params, problem: Problem):
-    shape = jnp.shape(params.Ra)
-    return jnp.broadcast_to(problem.i0, shape), jnp.broadcast_to(problem.w0, shape)
+    return jax.lax.fori_loop(0, nd, sub, y)
 
 
-def simulate(params: Params, problem: Problem) -> Float[Array, "*batch n 2"]:
-    """Current and speed at the recording's sample instants; row 0 is the initial state.
+def prepare(params, problem: Problem):
+    """(coefficients, initial state) of a parameter vector, dict or `Params` (batched or not)."""
+    model = problem.model
+    x = model.as_array(params)
+    c = model.coefficients(model.as_dict(x))
+    batch = x.shape[:-1]
+    y = tuple(jnp.broadcast_to(problem.y0[s], batch) for s in range(len(model.states)))
+    return c, y
 
-    `params` may be batched (leaves of shape `(P,)`): the whole population is marched in one
-    scan and the result has shape `(P, N, 2)`. `jax.vmap` over `params` gives the same."""
-    k = Coefficients.from_params(params)
-    i, w = _initial_state(params, problem)
 
-    def body(carry, x):
-        i, w = advance(k, problem, *carry, *x)
-        return (i, w), (i, w)
+def step_inputs(problem: Problem) -> Float[Array, "n-1 k"]:
+    """One packed per-step input array: h, u_start (m), u_end (m) (one slice per step instead of
+    several: measured 4-7 % faster)."""
+    return jnp.concatenate([problem.h[:, None], problem.u_start, problem.u_end], axis=1)
 
-    _, (i_s, w_s) = jax.lax.scan(body, (i, w), (problem.h, problem.u_start, problem.u_end), unroll=problem.unroll)
-    traj_i = jnp.concatenate([i[None], i_s], axis=0)
-    traj_w = jnp.concatenate([w[None], w_s], axis=0)
-    out = jnp.stack([traj_i, traj_w], axis=-1)  # (N, *batch, 2)
+
+def split_inputs(x, m: int):
+    return x[0], tuple(x[1 + j] for j in range(m)), tuple(x[1 + m + j] for j in range(m))
+
+
+def simulate(params, problem: Problem) -> Float[Array, "*batch n s"]:
+    """Every state of the model at the recording's sample instants; row 0 is the initial state.
+
+    `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
+    `Params`. Batched parameters (leading axes) are marched in one scan and the result has shape
+    `(*batch, N, S)`. `jax.vmap` over `params` gives the same."""
+    c, y = prepare(params, problem)
+    m = problem.u_start.shape[1]
+
+    def body(y, x):
+        h, ua, ub = split_inputs(x, m)
+        y = advance(c, problem, y, h, ua, ub)
+        return y, jnp.stack(y, axis=-1)
+
+    _, ys = jax.lax.scan(body, y, step_inputs(problem), unroll=problem.unroll)
+    out = jnp.concatenate([jnp.stack(y, axis=-1)[None], ys], axis=0)  # (N, *batch, S)
     return jnp.moveaxis(out, 0, -2)

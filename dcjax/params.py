@@ -1,4 +1,7 @@
-"""The seven motor and drive parameters (paper Table 1, eq. 6–7)."""
+"""The seven parameters of the paper's DC drive (Table 1, eq. 6–7) as a structured module.
+
+The rest of dcjax works with parameter vectors ordered as a model's `names`; `Params` is a
+convenience for the default `dcjax.models.DC` model."""
 
 from typing import ClassVar
 
@@ -7,16 +10,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-PARAM_NAMES: tuple[str, ...] = ("Ra", "La", "cm", "J", "Tla", "Tlb", "Tlc")
-PARAM_UNITS: dict[str, str] = {
-    "Ra": "Ohm",
-    "La": "H",
-    "cm": "Vs",
-    "J": "kg m^2",
-    "Tla": "Nm",
-    "Tlb": "Nm s",
-    "Tlc": "Nm s^2",
-}
+from .models.dc import NAMES, UNITS
+
+PARAM_NAMES: tuple[str, ...] = NAMES
+PARAM_UNITS: dict[str, str] = UNITS
 
 
 class Params(eqx.Module):
@@ -35,12 +32,12 @@ class Params(eqx.Module):
     names: ClassVar[tuple[str, ...]] = PARAM_NAMES
 
     @classmethod
-    def from_array(cls, x: Float[ArrayLike, "*batch 7"]) -> "Params":
+    def from_array(cls, x: Float[ArrayLike, "*batch P"]) -> "Params":
         """`x[..., k]` is the parameter `PARAM_NAMES[k]`."""
         x = jnp.asarray(x, dtype=jnp.float64)
-        if x.shape[-1] != 7:
-            raise ValueError(f"parameter vector must have 7 entries {PARAM_NAMES}, got shape {x.shape}")
-        return cls(*(x[..., k] for k in range(7)))
+        if x.ndim == 0 or x.shape[-1] != len(PARAM_NAMES):
+            raise ValueError(f"parameter vector must have {len(PARAM_NAMES)} entries {PARAM_NAMES}, got shape {x.shape}")
+        return cls(*(x[..., k] for k in range(len(PARAM_NAMES))))
 
     @classmethod
     def from_dict(cls, d: dict) -> "Params":
@@ -49,7 +46,7 @@ class Params(eqx.Module):
             raise ValueError(f"missing parameters {missing}; need all of {PARAM_NAMES}")
         return cls(*(jnp.asarray(d[n], dtype=jnp.float64) for n in PARAM_NAMES))
 
-    def to_array(self) -> Float[Array, "*batch 7"]:
+    def to_array(self) -> Float[Array, "*batch P"]:
         return jnp.stack([getattr(self, n) for n in PARAM_NAMES], axis=-1)
 
     def to_dict(self) -> dict[str, float]:

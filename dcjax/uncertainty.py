@@ -18,11 +18,11 @@ import numpy as np
 import optimistix as optx
 
 from .bounds import Bounds
-from .objectives import residuals
-from .params import PARAM_NAMES, Params
+from .polish import stacked_residuals
 from .problem import Problem
+from .space import Space, make_space
 
-WELL, WEAK, NOT = "well determined", "weakly determined", "not identifiable from this recording"
+WELL, WEAK, NOT, FIXED = "well determined", "weakly determined", "not identifiable from this recording", "fixed (known)"
 
 
 @dataclasses.dataclass
@@ -30,16 +30,27 @@ class Uncertainty:
     params: dict[str, float]
     se: dict[str, float]
     ci95: dict[str, tuple[float, float]]
-    correlation: np.ndarray  # (7, 7)
+    correlation: np.ndarray  # (P, P); 0 for fixed parameters
     verdict: dict[str, str]
     reason: dict[str, str]
     singular_values: np.ndarray  # of the bound-scaled Jacobian, descending
     dof: int
     s2: float
 
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.params)
+
+    def strong_correlations(self, threshold: float = 0.9) -> list[tuple[str, str, float]]:
+        """Pairs of parameters correlated above `threshold` in absolute value, strongest first."""
+        names, c = self.names, self.correlation
+        pairs = [(names[a], names[b], float(c[a, b])) for a in range(len(names)) for b in range(a + 1, len(names))
+                 if abs(c[a, b]) > threshold]
+        return sorted(pairs, key=lambda p: -abs(p[2]))
+
     def table(self) -> str:
         lines = [f"{'param':>6} {'value':>13} {'std. error':>11} {'rel.':>8} {'95 % interval':>29}  verdict"]
-        for n in PARAM_NAMES:
+        for n in self.params:
             v, s = self.params[n], self.se[n]
             rel = s / abs(v) if v else np.inf
             lo, hi = self.ci95[n]
@@ -47,16 +58,18 @@ class Uncertainty:
         return "\n".join(lines)
 
 
-def residual_jacobian(x: np.ndarray, problems: list[Problem], weights: list[float] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Stacked residuals r (m,) and J = dr/dx (m, 7) over one or several recordings; each
-    recording's residuals are scaled by sqrt(its weight), so sum r^2 is the (joint) OF."""
+def residual_jacobian(x: np.ndarray, problems: list[Problem], weights: list[float] | None = None, free=None) -> tuple[np.ndarray, np.ndarray]:
+    """Stacked residuals r (m,) and J = dr/dx (m, F) over one or several recordings, with respect
+    to the parameters `free` (indices; default all); each recording's residuals are scaled by
+    sqrt(its weight), so sum r^2 is the (joint) OF."""
     weights = weights or [1.0 / len(problems)] * len(problems)
-
-    def r_of(x):
-        return jnp.concatenate([jnp.sqrt(w) * residuals(Params.from_array(x), p) for w, p in zip(weights, problems)])
-
     x = jnp.asarray(x, dtype=jnp.float64)
-    return np.asarray(r_of(x)), np.asarray(jax.jacfwd(r_of)(x))
+    free = jnp.arange(x.shape[0]) if free is None else jnp.asarray(free, dtype=int)
+
+    def r_of(xf):
+        return stacked_residuals(x.at[free].set(xf), problems, weights)
+
+    return np.asarray(r_of(x[free])), np.asarray(jax.jacfwd(r_of)(x[free]))
 
 
 def _t_quantile(dof: int) -> float:
@@ -71,7 +84,7 @@ def _t_quantile(dof: int) -> float:
 def uncertainty(
     x,
     problems: Problem | list[Problem],
-    bounds: Bounds,
+    bounds: Bounds | Space,
     weights: list[float] | None = None,
     weak_rel_se: float = 0.1,
     not_rel_se: float = 1.0,
@@ -82,14 +95,21 @@ def uncertainty(
     Verdicts: *not identifiable from this recording* when the parameter sits on a bound, loads on a
     null direction of J (singular value below `rcond` x the largest), or its relative standard error
     exceeds `not_rel_se`; *weakly determined* when the relative error exceeds `weak_rel_se` or it
-    is correlated above 0.99 with another parameter; else *well determined*."""
+    is correlated above 0.99 with another parameter; else *well determined*. Parameters fixed in
+    `bounds` (a `Space`, or equal lower and upper bounds) are known: *fixed (known)*, error 0,
+    and the others' errors are computed with them held."""
     problems = problems if isinstance(problems, list) else [problems]
+    model = problems[0].model
+    space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
+    names = model.names
     x = np.asarray(x, dtype=np.float64)
-    r, jac = residual_jacobian(x, problems, weights)
+    fidx = np.array(space.free)
+    r, jac = residual_jacobian(x, problems, weights, fidx)
     m, p = jac.shape
     dof = max(m - p, 1)
     s2 = float(r @ r) / dof
-    width = np.asarray(bounds.upper - bounds.lower)
+    width = np.asarray(space.upper - space.lower)
+    xf = x[fidx]
     jz = jac * width  # d r / d z
     u, sv, vt = np.linalg.svd(jz, full_matrices=False)
     keep = sv > rcond * sv[0]
@@ -101,11 +121,12 @@ def uncertainty(
     corr = cov / np.outer(d, d)
     null_load = np.abs(vt[~keep]).max(axis=0) if np.any(~keep) else np.zeros(p)
     tq = _t_quantile(dof)
-    lo_b, hi_b = np.asarray(bounds.lower), np.asarray(bounds.upper)
+    lo_b, hi_b = np.asarray(space.lower), np.asarray(space.upper)
+    free_names = space.free_names
     verdict, reason = {}, {}
-    for k, n in enumerate(PARAM_NAMES):
-        rel = se[k] / abs(x[k]) if x[k] != 0 else np.inf
-        at_bound = min(abs(x[k] - lo_b[k]), abs(hi_b[k] - x[k])) <= 1e-9 * width[k] + 1e-300
+    for k, n in enumerate(free_names):
+        rel = se[k] / abs(xf[k]) if xf[k] != 0 else np.inf
+        at_bound = min(abs(xf[k] - lo_b[k]), abs(hi_b[k] - xf[k])) <= 1e-9 * width[k] + 1e-300
         others = np.abs(np.delete(corr[k], k))
         if at_bound:
             verdict[n], reason[n] = NOT, "at a bound"
@@ -117,16 +138,22 @@ def uncertainty(
             verdict[n], reason[n] = WEAK, f"relative std. error {rel:.1e}"
         elif others.max() > 0.99:
             j = int(np.argmax(np.abs(np.where(np.arange(p) == k, 0, corr[k]))))
-            verdict[n], reason[n] = WEAK, f"correlation {corr[k, j]:+.3f} with {PARAM_NAMES[j]}"
+            verdict[n], reason[n] = WEAK, f"correlation {corr[k, j]:+.3f} with {free_names[j]}"
         else:
             verdict[n], reason[n] = WELL, f"relative std. error {rel:.1e}"
+    se_all = np.zeros(len(names))
+    se_all[fidx] = se
+    corr_all = np.zeros((len(names), len(names)))
+    corr_all[np.ix_(fidx, fidx)] = corr
+    for n in space.fixed:
+        verdict[n], reason[n] = FIXED, "given"
     return Uncertainty(
-        params=dict(zip(PARAM_NAMES, map(float, x))),
-        se=dict(zip(PARAM_NAMES, map(float, se))),
-        ci95={n: (float(x[k] - tq * se[k]), float(x[k] + tq * se[k])) for k, n in enumerate(PARAM_NAMES)},
-        correlation=corr,
-        verdict=verdict,
-        reason=reason,
+        params=dict(zip(names, map(float, x))),
+        se=dict(zip(names, map(float, se_all))),
+        ci95={n: (float(x[k] - tq * se_all[k]), float(x[k] + tq * se_all[k])) for k, n in enumerate(names)},
+        correlation=corr_all,
+        verdict={n: verdict[n] for n in names},
+        reason={n: reason[n] for n in names},
         singular_values=sv,
         dof=dof,
         s2=s2,
@@ -138,29 +165,33 @@ def profile(
     name: str,
     values,
     problems: Problem | list[Problem],
-    bounds: Bounds,
+    bounds: Bounds | Space,
     weights: list[float] | None = None,
     max_steps: int = 200,
 ) -> np.ndarray:
-    """Profile likelihood of one parameter: for each value, the least OF over the other six
-    (Levenberg–Marquardt from `x`, bounds kept by the sine reparametrization). Returns OFs."""
-    if name not in PARAM_NAMES:
-        raise ValueError(f"unknown parameter {name!r}; choose from {PARAM_NAMES}")
+    """Profile likelihood of one parameter: for each value, the least OF over the other free
+    parameters (Levenberg–Marquardt from `x`, bounds kept by the sine reparametrization; fixed
+    parameters stay fixed). Returns OFs."""
     problems = problems if isinstance(problems, list) else [problems]
+    model = problems[0].model
+    model.check_names([name])
+    space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
+    if name in space.fixed:
+        raise ValueError(f"{name} is fixed; a profile needs a free parameter")
     weights = weights or [1.0 / len(problems)] * len(problems)
-    k = PARAM_NAMES.index(name)
-    free = np.array([j for j in range(7) if j != k])
-    lo, hi = np.asarray(bounds.lower)[free], np.asarray(bounds.upper)[free]
+    k = model.names.index(name)
+    free = np.array([j for j in space.free if j != k])
+    lo, hi = np.asarray(space.bounds.lower)[free], np.asarray(space.bounds.upper)[free]
     z0 = np.clip((np.asarray(x)[free] - lo) / np.where(hi > lo, hi - lo, 1.0), 1e-12, 1 - 1e-12)
     y0 = jnp.arcsin(2 * jnp.asarray(z0) - 1)
+    base = jnp.asarray(x, dtype=jnp.float64)
 
     def full(y, v):
         xf = jnp.asarray(lo) + (jnp.asarray(hi) - jnp.asarray(lo)) * 0.5 * (jnp.sin(y) + 1)
-        return jnp.insert(xf, k, v)
+        return base.at[free].set(xf).at[k].set(v)
 
     def fn(y, v):
-        xx = full(y, v)
-        return jnp.concatenate([jnp.sqrt(w) * residuals(Params.from_array(xx), p) for w, p in zip(weights, problems)])
+        return stacked_residuals(full(y, v), problems, weights)
 
     @jax.jit
     def solve(v):
@@ -183,10 +214,13 @@ def consistency(uncertainties: dict[str, Uncertainty], threshold: float = 3.0) -
     MD1–MD3. Parameters not identifiable in every fit are reported as such."""
     names = list(uncertainties)
     out = {}
-    for n in PARAM_NAMES:
+    for n in uncertainties[names[0]].params:
         x = np.array([uncertainties[r].params[n] for r in names])
         se = np.array([uncertainties[r].se[n] for r in names])
-        identifiable = [uncertainties[r].verdict[n] != NOT for r in names]
+        if all(uncertainties[r].verdict[n] == FIXED for r in names):
+            out[n] = {"values": x.tolist(), "se": se.tolist(), "spread": 0.0, "max_z": None, "verdict": FIXED}
+            continue
+        identifiable = [uncertainties[r].verdict[n] not in (NOT, FIXED) for r in names]
         spread = float((x.max() - x.min()) / abs(x.mean())) if x.mean() else np.inf
         if not all(identifiable):
             out[n] = {"values": x.tolist(), "se": se.tolist(), "spread": spread, "max_z": None,

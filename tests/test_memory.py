@@ -22,7 +22,7 @@ def sd1_fn(sd1):
 
 def _run(fn, memory, precision=PREC, budget=2800, method="de-rand-1-exp", seed=0, **kw):
     s = make_strategy(method)
-    return jax.jit(lambda k: run(s, k, fn, budget, memory=memory, precision=precision, **kw))(jax.random.PRNGKey(seed))
+    return jax.jit(lambda k: run(s, k, fn, budget, 7, memory=memory, precision=precision, **kw))(jax.random.PRNGKey(seed))
 
 
 @pytest.mark.parametrize("memory", MEMORY_KINDS)
@@ -39,8 +39,8 @@ def test_precision_zero_gives_the_memory_free_path(sd1_fn, memory):
 def test_precision_zero_path_under_vmap(sd1_fn):
     s = make_strategy("de-rand-1-exp")
     keys = jax.random.split(jax.random.PRNGKey(3), 3)
-    off = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400)))(keys)
-    on = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, memory="stma", precision=jnp.zeros(7))))(keys)
+    off = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, 7)))(keys)
+    on = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, 7, memory="stma", precision=jnp.zeros(7))))(keys)
     t = off.history.shape[1]
     np.testing.assert_array_equal(np.asarray(on.history)[:, :t], np.asarray(off.history))
     assert np.all(np.asarray(on.dups) == 0)

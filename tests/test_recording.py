@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcjax import TABLE4, TABLE8, Bounds, Recording, bounds_preset, load_csv, make_problem, save_csv, trim_switch_on
+from dcjax import PARAM_NAMES, TABLE4, TABLE8, Bounds, identify, Recording, bounds_preset, load_csv, make_problem, save_csv, trim_switch_on
 from dcjax import datasets
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -28,8 +28,6 @@ def _rec(**kw):
         (dict(omega=np.array([0, 1, np.inf, 1, 1.0])), "NaN/inf"),
         (dict(t=np.array([0, 0.1, 0.1, 0.2, 0.3])), "strictly increasing"),
         (dict(t=np.array([0, 0.2, 0.1, 0.3, 0.4])), "strictly increasing"),
-        (dict(i_a=np.zeros(5)), "all zero"),
-        (dict(omega=np.zeros(5)), "all zero"),
         (dict(i_a_limit=-1.0), "current limit"),
         (dict(i_a_limit=0.0), "current limit"),
         (dict(u_a=np.ones((5, 2))), "one-dimensional"),
@@ -38,6 +36,13 @@ def _rec(**kw):
 def test_bad_recordings(kw, match):
     with pytest.raises(ValueError, match=match):
         _rec(**kw)
+
+
+@pytest.mark.parametrize("channel", ["i_a", "omega"])
+def test_all_zero_measured_channel_is_rejected_by_the_problem(channel):
+    """The objective divides by a measured channel's peak: make_problem names the channel."""
+    with pytest.raises(ValueError, match=f"column '{channel}' is all zero"):
+        make_problem(_rec(**{channel: np.zeros(5)}))
 
 
 def test_too_few_samples():
@@ -94,12 +99,14 @@ def test_bounds():
     with pytest.raises(ValueError, match="lower bound above upper"):
         Bounds(np.ones(7), np.zeros(7))
     with pytest.raises(ValueError, match="7 values"):
-        Bounds(np.zeros(6), np.ones(6))
+        Bounds(np.zeros(6), np.ones(6), PARAM_NAMES)
+    with pytest.raises(ValueError, match="6 entries but model dc has 7"):
+        identify(_rec(), bounds=Bounds(np.zeros(6), np.ones(6)), runs=1, budget=70)
     with pytest.raises(ValueError, match="finite"):
         Bounds(np.zeros(7), np.full(7, np.inf))
     with pytest.raises(ValueError, match="unknown bounds preset"):
         bounds_preset("table5")
-    assert bounds_preset("TABLE8") is TABLE8
+    np.testing.assert_array_equal(bounds_preset("TABLE8").upper, TABLE8.upper)
     assert float(TABLE4.upper[6]) == 1e-6 and float(TABLE8.upper[5]) == 9.55e-2
 
 

@@ -20,7 +20,7 @@ def sphere(z):
 
 def _run(method, fn, budget, seed=0, **kw):
     s = make_strategy(method, **kw)
-    return jax.jit(lambda k: run(s, k, fn, budget))(jax.random.PRNGKey(seed))
+    return jax.jit(lambda k: run(s, k, fn, budget, 7))(jax.random.PRNGKey(seed))
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -89,7 +89,7 @@ def test_non_finite_never_selected(method):
 def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):
     s = make_strategy(method)
     keys = jax.random.split(jax.random.PRNGKey(7), 3)
-    f = lambda k: run(s, k, sd1_fn, 1400)  # noqa: E731
+    f = lambda k: run(s, k, sd1_fn, 1400, 7)  # noqa: E731
     batched = jax.jit(jax.vmap(f))(keys)
     for r in range(3):
         single = jax.jit(f)(keys[r])
@@ -159,7 +159,7 @@ def test_evosax_de_cross_checks_de_best_1_bin():
     ours = DEBest1Bin()
     med = {}
     for label, s in (("evosax", ev), ("dcjax", ours)):
-        f = jax.jit(jax.vmap(lambda k, s=s: run(s, k, sphere, 14_000)))
+        f = jax.jit(jax.vmap(lambda k, s=s: run(s, k, sphere, 14_000, 7)))
         med[label] = float(np.median(np.asarray(f(jax.random.split(jax.random.PRNGKey(0), 4)).best_f)))
     assert med["evosax"] < 1e-12 and med["dcjax"] < 1e-12, med
     assert 1e-4 < med["dcjax"] / med["evosax"] < 1e4, med

@@ -29,8 +29,8 @@ class ABC(Strategy):
     def max_iterations(self, budget: int) -> int:
         return max(0, -(-(budget - self.n_sources) // (2 * self.n_sources)))
 
-    def init(self, key, fn, budget, dim=7) -> State:
-        return initial_state(key, fn, budget, self.n_sources, dim, self.init_rule, aux=jnp.zeros(self.n_sources, jnp.int32))
+    def init(self, key, fn, budget, dim, x0=None) -> State:
+        return initial_state(key, fn, budget, self.n_sources, dim, self.init_rule, aux=jnp.zeros(self.n_sources, jnp.int32), x0=x0)
 
     def _move(self, key, pop, who):
         """Candidate v for the sources `who` (one per bee)."""

@@ -62,12 +62,25 @@ def evaluate(fn: FitnessFn, z: Float[Array, "P D"], state: State, budget: int) -
     return f, z, state.replace(fes=state.fes + jnp.sum(allowed), dups=state.dups + jnp.sum(found), memory=mem)
 
 
-def initial_state(key: PRNGKeyArray, fn: FitnessFn, budget: int, n: int, dim: int, init: str, aux: PyTree = None) -> State:
-    """A random population of `n` (see `uniform_population`), evaluated within the budget."""
-    pop = uniform_population(key, n, dim, init)
+def initial_state(
+    key: PRNGKeyArray, fn: FitnessFn, budget: int, n: int, dim: int, init: str, aux: PyTree = None, x0: Array | None = None
+) -> State:
+    """A random population of `n` (see `uniform_population`), evaluated within the budget.
+    `x0` (K, D), unit cube: start values put in place of the first K members' genes (NaN: keep
+    the random gene)."""
+    pop = seed_population(uniform_population(key, n, dim, init), x0)
     allowed = jnp.arange(n) < budget
     fit = jnp.where(allowed, finite_or_inf(fn(pop)), jnp.inf)
     return State(pop, fit, pop[0], jnp.asarray(jnp.inf), jnp.sum(allowed), aux, jnp.asarray(0))
+
+
+def seed_population(pop: Float[Array, "n d"], x0: Array | None) -> Float[Array, "n d"]:
+    """Put start values `x0` (K, D; NaN = not given) into the first K members."""
+    if x0 is None:
+        return pop
+    x0 = jnp.asarray(x0, pop.dtype)[: pop.shape[0]]
+    k = x0.shape[0]
+    return pop.at[:k].set(jnp.where(jnp.isnan(x0), pop[:k], jnp.clip(x0, 0.0, 1.0)))
 
 
 def with_best(state: State) -> State:
@@ -133,7 +146,9 @@ def greedy(pop, fit, trial, trial_fit) -> tuple[Array, Array, Bool[Array, " P"]]
 
 
 class Strategy(eqx.Module):
-    """Interface: `init(key, fn, budget) -> State`, `step(key, state, fn, budget) -> State`.
+    """Interface: `init(key, fn, budget, dim, x0) -> State`, `step(key, state, fn, budget) -> State`.
+    `dim` is the number of searched (free) parameters; `x0` optional start values (K, dim) in
+    the unit cube that replace the first K members of the initial population.
 
     `cost` is the most evaluations one step can spend when it must run whole (GA); strategies
     that mask evaluations past the budget set it to 1 and stop exactly at the budget."""
@@ -147,7 +162,7 @@ class Strategy(eqx.Module):
     def max_iterations(self, budget: int) -> int:
         raise NotImplementedError
 
-    def init(self, key, fn: FitnessFn, budget: int, dim: int = 7) -> State:
+    def init(self, key, fn: FitnessFn, budget: int, dim: int, x0: Array | None = None) -> State:
         raise NotImplementedError
 
     def step(self, key, state: State, fn: FitnessFn, budget: int) -> State:
@@ -176,11 +191,12 @@ def run(
     key: PRNGKeyArray,
     fn: FitnessFn,
     budget: int,
-    dim: int = 7,
+    dim: int,
     memory: str | None = None,
     precision: Float[Array, " D"] | None = None,
     generations: int | None = None,
     capacity: int | None = None,
+    x0: Float[Array, "K D"] | None = None,
 ) -> RunOutput:
     """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
     `generations`, at most that many iterations.
@@ -188,13 +204,14 @@ def run(
     `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`; see `Memory`) with `precision` in unit-cube
     units. Duplicates cost no FEs, so a budget lasts longer: without `generations` a run with
     memory stops at the budget or at `MEMORY_ITERATION_FACTOR` x the memory-free iteration count.
-    The LTMA history holds `capacity` records (default: budget + one population)."""
+    The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
+    initial population (see `Strategy.init`)."""
     if generations is not None:
         t_max = int(generations)
     else:
         t_max = max(1, strategy.max_iterations(budget)) * (1 if memory is None else MEMORY_ITERATION_FACTOR)
     k_init, k_run = jax.random.split(key)
-    state = with_best(strategy.init(k_init, fn, budget, dim))
+    state = with_best(strategy.init(k_init, fn, budget, dim, x0))
     if memory is not None:
         if precision is None:
             raise ValueError("memory needs a precision vector (unit-cube units)")

@@ -44,8 +44,8 @@ class _DE(Strategy):
     def max_iterations(self, budget: int) -> int:
         return max(0, -(-(budget - self.pop_size) // self.pop_size))
 
-    def init(self, key, fn, budget, dim=7) -> State:
-        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule)
+    def init(self, key, fn, budget, dim, x0=None) -> State:
+        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule, x0=x0)
 
     def mutant(self, key, state: State) -> Array:
         raise NotImplementedError

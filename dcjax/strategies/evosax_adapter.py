@@ -48,15 +48,16 @@ class Evosax(Strategy):
     def max_iterations(self, budget: int) -> int:
         return max(0, budget // self.pop_size)
 
-    def init(self, key, fn, budget, dim=7) -> State:
+    def init(self, key, fn, budget, dim, x0=None) -> State:
         algo = self._algo(dim)
         params = self._params(algo)
         k1, k2 = jax.random.split(key)
         if self_is_pop(algo):
-            state = initial_state(k1, fn, budget, self.pop_size, dim, "uniform")
+            state = initial_state(k1, fn, budget, self.pop_size, dim, "uniform", x0=x0)
             es = algo.init(k2, state.pop, state.fit, params)
             return state.replace(aux=es)
-        es = algo.init(k2, jnp.full(dim, 0.5), params)
+        mean = jnp.full(dim, 0.5) if x0 is None else jnp.nanmean(jnp.where(jnp.isnan(x0), 0.5, x0), axis=0)
+        es = algo.init(k2, mean, params)
         pop = jnp.full((self.pop_size, dim), 0.5)
         return State(pop, jnp.full(self.pop_size, jnp.inf), pop[0], jnp.asarray(jnp.inf), jnp.asarray(0), es, jnp.asarray(0))
 

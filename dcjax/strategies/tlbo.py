@@ -20,8 +20,8 @@ class TLBO(Strategy):
     def max_iterations(self, budget: int) -> int:
         return max(0, -(-(budget - self.pop_size) // (2 * self.pop_size)))
 
-    def init(self, key, fn, budget, dim=7) -> State:
-        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule)
+    def init(self, key, fn, budget, dim, x0=None) -> State:
+        return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule, x0=x0)
 
     def step(self, key, state, fn, budget) -> State:
         n, d = state.pop.shape

@@ -1,7 +1,7 @@
 """Regenerate data/SD1.csv … SD4.csv (+ JSON sidecars) from paper Tables 2–3.
 
-    python data/generate_sd.py            # writes next to this script
-    python data/generate_sd.py --check    # exit 1 if any file differs from a fresh generation
+python data/generate_sd.py            # writes next to this script
+python data/generate_sd.py --check    # exit 1 if any file differs from a fresh generation
 """
 
 import argparse

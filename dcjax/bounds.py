@@ -6,6 +6,7 @@ from collections.abc import Mapping
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+import numpy.typing as npt
 from jaxtyping import Array, ArrayLike, Float
 
 from .models import DC, Model
@@ -21,7 +22,7 @@ class Bounds(eqx.Module):
     lower: Float[Array, " P"]
     upper: Float[Array, " P"]
 
-    def __init__(self, lower: Float[ArrayLike, " P"], upper: Float[ArrayLike, " P"], names: tuple[str, ...] | None = None):
+    def __init__(self, lower: npt.ArrayLike, upper: npt.ArrayLike, names: tuple[str, ...] | None = None):
         lo = np.atleast_1d(np.asarray(lower, dtype=np.float64))
         hi = np.atleast_1d(np.asarray(upper, dtype=np.float64))
         if lo.ndim != 1 or lo.shape != hi.shape or (names is not None and lo.shape != (len(names),)):
@@ -32,8 +33,9 @@ class Bounds(eqx.Module):
         bad = [k if names is None else names[k] for k in np.flatnonzero(lo > hi)]
         if bad:
             raise ValueError(f"lower bound above upper bound for {bad}")
-        self.lower = jnp.asarray(lo)
-        self.upper = jnp.asarray(hi)
+        # NumPy leaves: building bounds (the presets at import) starts no JAX backend.
+        self.lower = lo
+        self.upper = hi
 
     @property
     def size(self) -> int:
@@ -78,9 +80,9 @@ def resolve_bounds(model: Model, bounds=None, overrides: Mapping[str, tuple[floa
         overrides = {**bounds, **(overrides or {})}
         bounds = None
     if bounds is None or isinstance(bounds, str):
-        b = bounds_preset(bounds, model) if bounds is not None or model.bounds else None
-        if b is None:
+        if bounds is None and not model.bounds:
             raise ValueError(f"model {model.name} has no bounds presets; give bounds for {', '.join(model.names)}")
+        b = Bounds(*model.bound_arrays(bounds), model.names)
     elif isinstance(bounds, Bounds):
         b = bounds
     else:

@@ -69,7 +69,9 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--weights", default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)")
-    f.add_argument("--bounds", default=None, help="a bounds preset of the model: table4 or table8 (default: table4, or the sidecar's 'bounds')")
+    f.add_argument(
+        "--bounds", default=None, help="a bounds preset of the model: table4 or table8 (default: table4, or the sidecar's 'bounds')"
+    )
     f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. Ra=0:10,J=0:0.1")
     f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
     f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
@@ -155,11 +157,29 @@ def fit(args) -> int:
     x0 = _named_floats(args.x0, "--x0") or None
     precision = None
     if args.precision is not None:
-        precision = _named_floats(args.precision, "--precision") if "=" in args.precision else _floats(args.precision, "--precision", model.n_params)
+        precision = (
+            _named_floats(args.precision, "--precision")
+            if "=" in args.precision
+            else _floats(args.precision, "--precision", model.n_params)
+        )
     result = identify(
-        recs, method=args.method, integrator=args.integrator, nd=nd, weights=weights, bounds=bounds, runs=args.runs,
-        budget=args.budget, seed=args.seed, polish=args.polish, i_limit=args.i_limit, memory=args.memory,
-        precision=precision, generations=args.generations, model=model, fixed=fixed or None, x0=x0,
+        recs,
+        method=args.method,
+        integrator=args.integrator,
+        nd=nd,
+        weights=weights,
+        bounds=bounds,
+        runs=args.runs,
+        budget=args.budget,
+        seed=args.seed,
+        polish=args.polish,
+        i_limit=args.i_limit,
+        memory=args.memory,
+        precision=precision,
+        generations=args.generations,
+        model=model,
+        fixed=fixed or None,
+        x0=x0,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -171,7 +191,9 @@ def fit(args) -> int:
     if any(r.metadata.get("true_params") != truth for r in recs) or not isinstance(truth, dict) or set(truth) != set(model.names):
         truth = None
     names = " + ".join(r.name for r in recs)
-    print(f"{names}: model {model.name}, {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}")
+    print(
+        f"{names}: model {model.name}, {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
+    )
     for step in result.settings.get("nd_sequence", []):
         change = "" if step["max_rel_change"] is None else f", max rel. change {step['max_rel_change']:.2e}"
         print(f"  ND={step['nd']}: OF {step['of']:.4e}{change}")
@@ -191,10 +213,14 @@ def fit(args) -> int:
     print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
     if result.duplicates is not None:
         d = result.duplicates
-        print(f"memory {args.memory}: {d['percent']:.1f} % of candidates answered from memory; mean FEs {result.fes.mean():.0f}, iterations {result.iterations.mean():.0f}")
+        print(
+            f"memory {args.memory}: {d['percent']:.1f} % of candidates answered from memory; mean FEs {result.fes.mean():.0f}, iterations {result.iterations.mean():.0f}"
+        )
     if args.uncertainty:
         print(result._uncertainty.table())
-    print(f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}")
+    print(
+        f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}"
+    )
     return 0
 
 

@@ -28,6 +28,8 @@ def use_host_devices(n: int | None = None) -> int:
     except RuntimeError:
         have = len(jax.devices("cpu"))
         if have != n:
-            warnings.warn(f"JAX already started with {have} CPU device(s); call dcjax.use_host_devices() before any JAX computation", stacklevel=2)
+            warnings.warn(
+                f"JAX already started with {have} CPU device(s); call dcjax.use_host_devices() before any JAX computation", stacklevel=2
+            )
         return have
     return n

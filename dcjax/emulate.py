@@ -215,4 +215,4 @@ def md_settings(name: str) -> DriveSettings:
     c = dict(table7[key])
     load_b = c.pop("load_b")
     params = dict(MOTOR, Tlb=MOTOR["Tlb"] + load_b)
-    return DriveSettings(params=params, effects=LAB_EFFECTS, name=key, **c)
+    return DriveSettings(params=params, effects=LAB_EFFECTS, name=key, **c)  # pyright: ignore[reportArgumentType]

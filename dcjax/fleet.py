@@ -80,7 +80,7 @@ def identify_fleet(
 
     def motor(prob_arrays, motor_keys):
         prob = eqx.combine(prob_arrays, static)
-        fn = lambda z: objective(space.to_physical(z), prob)  # noqa: E731
+        fn = lambda z: objective(space.to_physical(z), prob)
         out = jax.vmap(lambda k: run(strategy, k, fn, budget, space.dim))(motor_keys)
         best = jnp.argmin(out.best_f)
         return space.to_physical(out.best_x[best]), out.best_f[best], out.fes
@@ -97,7 +97,17 @@ def identify_fleet(
         of=f,
         fes=fes,
         timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": len(devices), "motors_per_s": m / (t2 - t1)},
-        settings={"method": method, "integrator": integrator, "nd": nd, "runs": runs, "budget": budget, "seed": seed,
-                  "pop_size": pop_size, "motors": m, "model": model.name, "fixed": space.fixed},
+        settings={
+            "method": method,
+            "integrator": integrator,
+            "nd": nd,
+            "runs": runs,
+            "budget": budget,
+            "seed": seed,
+            "pop_size": pop_size,
+            "motors": m,
+            "model": model.name,
+            "fixed": space.fixed,
+        },
         names=model.names,
     )

@@ -3,7 +3,6 @@ one compiled call, with an optional Levenberg–Marquardt polish (paper Sections
 
 import time
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -18,6 +17,7 @@ from .result import IdentificationResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
 from .space import Space, make_space
 from .strategies import Strategy, make_strategy, run
+from .strategies.base import FitnessFn
 from .strategies.memory import MEMORY_KINDS, physical_precision, unit_precision
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
@@ -35,14 +35,15 @@ def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim):
             x = space.to_physical(z)
             return sum(w * objective(x, prob) for w, prob in zip(jw, problems))
 
-        return run(strategy, key, of, budget, dim, memory=memory, precision=prec, generations=generations, x0=x0)
+        fn: FitnessFn = of  # pyright: ignore[reportAssignmentType]
+        return run(strategy, key, fn, budget, dim, memory=memory, precision=prec, generations=generations, x0=x0)
 
     batched = jax.vmap(one_run, in_axes=(0, None, None, None, None))
     if memory is not None and mesh is not None:
         # Each device runs its own vmapped batch, so compaction stays local to the device.
         spec, rep = PartitionSpec("runs"), PartitionSpec()
         batched = jax.shard_map(batched, mesh=mesh, in_specs=(spec, rep, rep, rep, rep), out_specs=spec, check_vma=False)
-    return eqx.filter_jit(batched)
+    return jax.jit(batched)
 
 
 def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
@@ -137,10 +138,24 @@ def identify(
         if len(joint_weights) != len(recordings) or any(not w >= 0 for w in joint_weights) or sum(joint_weights) <= 0:
             raise ValueError("joint_weights needs one non-negative weight per recording, not all zero")
     common = dict(
-        method=method, integrator=integrator, weights=weights, bounds=bounds, runs=runs, budget=budget, seed=seed,
-        polish=polish, pop_size=pop_size, i_limit=i_limit, strategy_options=strategy_options,
-        joint_weights=joint_weights, memory=memory, precision=precision, generations=generations, model=model,
-        fixed=fixed, x0=x0,
+        method=method,
+        integrator=integrator,
+        weights=weights,
+        bounds=bounds,
+        runs=runs,
+        budget=budget,
+        seed=seed,
+        polish=polish,
+        pop_size=pop_size,
+        i_limit=i_limit,
+        strategy_options=strategy_options,
+        joint_weights=joint_weights,
+        memory=memory,
+        precision=precision,
+        generations=generations,
+        model=model,
+        fixed=fixed,
+        x0=x0,
     )
     if nd == "auto":
         return _identify_auto_nd(recordings, nd_tol=nd_tol, nd_max=nd_max, **common)
@@ -154,6 +169,7 @@ def identify(
         raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {memory!r}")
     if generations is not None:
         _positive_int("generations", generations)
+    assert not isinstance(nd, str)
     b = resolve_bounds(model, bounds)
     space = make_space(model, b, fixed)
     prec = None if memory is None else jnp.asarray(unit_precision(precision, space, model))
@@ -250,5 +266,9 @@ def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
             break
         prev, nd = x, 2 * nd
     res.settings["nd_sequence"] = sequence
-    res.settings["nd_auto"] = {"tol": nd_tol, "max": nd_max, "converged": sequence[-1]["max_rel_change"] is not None and sequence[-1]["max_rel_change"] < nd_tol}
+    res.settings["nd_auto"] = {
+        "tol": nd_tol,
+        "max": nd_max,
+        "converged": sequence[-1]["max_rel_change"] is not None and sequence[-1]["max_rel_change"] < nd_tol,
+    }
     return res

@@ -33,14 +33,13 @@ def _numeric(fields: list[str], decimal: str) -> bool:
 
 
 def _detect_delimiter(lines: list[str], decimal: str) -> str | None:
-    """The delimiter that splits the last lines (data) into the same number (>= 2) of numeric
-    fields, preferring `;`, tab, `,`, then whitespace."""
-    tail = lines[-min(len(lines), 20) :]
+    """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields
+    (and the lines before it, as far as they are data, into as many)."""
     for d in (";", "\t", ",", None):
         if d == "," and decimal == ",":
             continue
-        counts = {len(_split(x, d)) for x in tail}
-        if len(counts) == 1 and counts.pop() >= 2 and all(_numeric(_split(x, d), decimal) for x in tail):
+        last = _split(lines[-1], d)
+        if len(last) >= 2 and _numeric(last, decimal):
             return d
     raise ValueError("cannot detect the delimiter (tried ';', tab, ',', whitespace); give delimiter=/--delimiter")
 
@@ -191,9 +190,17 @@ def load_recording(
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, i_a_limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
     rec = preprocess(rec, window, every, trim)
-    load = {"columns": columns or None, "units": units or None, "delimiter": delimiter, "decimal": decimal,
-            "window": None if window is None else list(_window(window)), "every": every, "trim": trim,
-            "i_limit": i_limit, "model": None if model is None else (m.name if isinstance(model, str) else None)}
+    load = {
+        "columns": columns or None,
+        "units": units or None,
+        "delimiter": delimiter,
+        "decimal": decimal,
+        "window": _window(window) and list(_window(window) or ()),
+        "every": every,
+        "trim": trim,
+        "i_limit": i_limit,
+        "model": None if model is None else (m.name if isinstance(model, str) else None),
+    }
     load = {k: v for k, v in load.items() if v not in (None, False) and not (k == "decimal" and v == ".")}
     return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})
 
@@ -212,5 +219,3 @@ def recording_from_table(table, columns=None, units=None, model=None, name: str 
     chans = select_channels(cols, m.channels, columns, units, m.quantities)
     t = chans.pop("t")
     return Recording(t=t, channels=chans, i_a_limit=i_limit, name=name)
-
-

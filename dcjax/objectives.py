@@ -55,6 +55,4 @@ def residuals(params, problem: Problem) -> Float[Array, "*batch cn"]:
     sample of the first channel, then the next channel. Used by the Levenberg–Marquardt polish."""
     traj = simulate(params, problem)
     outs = problem.model.output_index
-    return jnp.concatenate(
-        [jnp.sqrt(problem.scale[j]) * (traj[..., o] - problem.y_meas[:, j]) for j, o in enumerate(outs)], axis=-1
-    )
+    return jnp.concatenate([jnp.sqrt(problem.scale[j]) * (traj[..., o] - problem.y_meas[:, j]) for j, o in enumerate(outs)], axis=-1)

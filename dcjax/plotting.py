@@ -59,7 +59,7 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
             bottom[j].plot(rec.t, y - rec[c], "b-", lw=0.8)
             bottom[j].axhline(0.0, color="k", lw=0.5)
             bottom[j].set(xlabel="t (s)", ylabel=f"residual {_label(c)}")
-        for k, c in enumerate(model.inputs):
+        for _k, c in enumerate(model.inputs):
             top[len(outs)].plot(rec.t, rec[c], lw=1, label=c)
         top[len(outs)].set(xlabel="t (s)", ylabel="input", title="inputs")
         if model.inputs:

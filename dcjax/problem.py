@@ -58,7 +58,7 @@ def _positive_int(name, v):
 
 def make_problem(
     recording: Recording,
-    integrator: Integrator = "rk4",
+    integrator: Integrator | str = "rk4",
     nd: int = 1,
     weights: tuple[float, ...] | None = None,
     voltage: float | None = None,
@@ -130,7 +130,7 @@ def make_problem(
         raise ValueError(f"unknown state(s) {bad} for model {model.name}; its states are {model.states}")
     y0 = [float(init[s]) if s in init else float(recording[s][0]) if s in recording.channels else 0.0 for s in model.states]
     n = t.shape[0]
-    f64 = lambda x: jnp.asarray(x, dtype=jnp.float64)  # noqa: E731
+    f64 = lambda x: jnp.asarray(x, dtype=jnp.float64)
     return Problem(
         model=model,
         h=f64(np.diff(t)),

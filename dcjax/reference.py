@@ -13,9 +13,7 @@ def _f(p, u, i, w):
     return (u - i * ra - cm * w) / la, (cm * i - (tla + tlb * w + tlc * w**2)) / j
 
 
-def simulate_numpy(
-    x, t, u, i0=0.0, w0=0.0, integrator="rk4", nd=1, i_limit=None
-) -> np.ndarray:
+def simulate_numpy(x, t, u, i0=0.0, w0=0.0, integrator="rk4", nd=1, i_limit=None) -> np.ndarray:
     """x: (7,) or (P, 7) parameters. Returns (N, 2) or (P, N, 2): current and speed at t."""
     x = np.asarray(x, dtype=np.float64)
     single = x.ndim == 1

@@ -26,9 +26,11 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
     m = result.model
     st = result.stats
     lines = ["[[Model]]", f"    {m.name}: {', '.join(m.names)}"]
-    lines += ["[[Fit Statistics]]",
-              f"    method             = {s['method']}, {s['integrator']}, ND = {s['nd']}",
-              f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}" + (", LM polish" if s.get("polish") else "")]
+    lines += [
+        "[[Fit Statistics]]",
+        f"    method             = {s['method']}, {s['integrator']}, ND = {s['nd']}",
+        f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}" + (", LM polish" if s.get("polish") else ""),
+    ]
     for rec in result.recordings:
         lines.append(f"    data               = {rec.name} ({len(rec)} samples, t {rec.t[0]:g}..{rec.t[-1]:g} s)")
     if not result.recordings:
@@ -37,7 +39,9 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
     lines.append(f"    objective W/M/SD   = {st['worst']:.4e} / {st['mean']:.4e} / {st['std']:.4e}")
     for rec in result.recordings:
         fits = channel_fit(result, rec)
-        lines.append(f"    fit % ({rec.name})" + " " * max(1, 11 - len(rec.name)) + "= " + ", ".join(f"{c} {v:.3f}" for c, v in fits.items()))
+        lines.append(
+            f"    fit % ({rec.name})" + " " * max(1, 11 - len(rec.name)) + "= " + ", ".join(f"{c} {v:.3f}" for c, v in fits.items())
+        )
     u = result._uncertainty
     lines.append("[[Variables]]")
     at_bound = set(result.at_bound())

@@ -71,8 +71,7 @@ class IdentificationResult:
         if not recs:
             raise ValueError("no recording: the result was loaded without its data; pass a recording")
         return [
-            make_problem(r, model=self.model, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]),
-                         i_limit=s["i_limit"])
+            make_problem(r, model=self.model, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]), i_limit=s["i_limit"])
             for r in recs
         ]
 

@@ -6,6 +6,7 @@ Run r's key is `fold_in(PRNGKey(seed), r)` (a fleet folds the motor index in fir
 does not depend on how many others are made or on the device count. The leading axis is padded
 to a multiple of the device count and sharded (`NamedSharding`); padding is dropped afterwards."""
 
+import gc
 from collections import OrderedDict
 from collections.abc import Callable
 
@@ -69,6 +70,9 @@ class ExecutableCache:
             self._items[key] = hit
             while len(self._items) > self.size:
                 self._items.popitem(last=False)
+                # An executable and JAX's weakly keyed caches of its tracing and lowering form
+                # reference cycles: collect them now, or their memory mappings linger.
+                gc.collect()
         self._items.move_to_end(key)
         return hit, reused
 

@@ -36,6 +36,7 @@ class Uncertainty:
     singular_values: np.ndarray  # of the bound-scaled Jacobian, descending
     dof: int
     s2: float
+    profile: tuple | None = None  # (values, OFs) of a profile likelihood, where computed
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -44,8 +45,9 @@ class Uncertainty:
     def strong_correlations(self, threshold: float = 0.9) -> list[tuple[str, str, float]]:
         """Pairs of parameters correlated above `threshold` in absolute value, strongest first."""
         names, c = self.names, self.correlation
-        pairs = [(names[a], names[b], float(c[a, b])) for a in range(len(names)) for b in range(a + 1, len(names))
-                 if abs(c[a, b]) > threshold]
+        pairs = [
+            (names[a], names[b], float(c[a, b])) for a in range(len(names)) for b in range(a + 1, len(names)) if abs(c[a, b]) > threshold
+        ]
         return sorted(pairs, key=lambda p: -abs(p[2]))
 
     def table(self) -> str:
@@ -58,18 +60,20 @@ class Uncertainty:
         return "\n".join(lines)
 
 
-def residual_jacobian(x: np.ndarray, problems: list[Problem], weights: list[float] | None = None, free=None) -> tuple[np.ndarray, np.ndarray]:
+def residual_jacobian(
+    x: np.ndarray, problems: list[Problem], weights: list[float] | None = None, free=None
+) -> tuple[np.ndarray, np.ndarray]:
     """Stacked residuals r (m,) and J = dr/dx (m, F) over one or several recordings, with respect
     to the parameters `free` (indices; default all); each recording's residuals are scaled by
     sqrt(its weight), so sum r^2 is the (joint) OF."""
     weights = weights or [1.0 / len(problems)] * len(problems)
-    x = jnp.asarray(x, dtype=jnp.float64)
-    free = jnp.arange(x.shape[0]) if free is None else jnp.asarray(free, dtype=int)
+    xj = jnp.asarray(x, dtype=jnp.float64)
+    free = jnp.arange(xj.shape[0]) if free is None else jnp.asarray(free, dtype=int)
 
     def r_of(xf):
-        return stacked_residuals(x.at[free].set(xf), problems, weights)
+        return stacked_residuals(xj.at[free].set(xf), problems, weights)
 
-    return np.asarray(r_of(x[free])), np.asarray(jax.jacfwd(r_of)(x[free]))
+    return np.asarray(r_of(xj[free])), np.asarray(jax.jacfwd(r_of)(xj[free]))
 
 
 def _t_quantile(dof: int) -> float:
@@ -223,12 +227,22 @@ def consistency(uncertainties: dict[str, Uncertainty], threshold: float = 3.0) -
         identifiable = [uncertainties[r].verdict[n] not in (NOT, FIXED) for r in names]
         spread = float((x.max() - x.min()) / abs(x.mean())) if x.mean() else np.inf
         if not all(identifiable):
-            out[n] = {"values": x.tolist(), "se": se.tolist(), "spread": spread, "max_z": None,
-                      "verdict": f"not identifiable in {', '.join(r for r, ok in zip(names, identifiable) if not ok)}"}
+            out[n] = {
+                "values": x.tolist(),
+                "se": se.tolist(),
+                "spread": spread,
+                "max_z": None,
+                "verdict": f"not identifiable in {', '.join(r for r, ok in zip(names, identifiable) if not ok)}",
+            }
             continue
         w = 1.0 / np.maximum(se, 1e-300) ** 2
         mean = float(np.sum(w * x) / np.sum(w))
         z = float(np.max(np.abs(x - mean) / np.maximum(se, 1e-300)))
-        out[n] = {"values": x.tolist(), "se": se.tolist(), "spread": spread, "max_z": z,
-                  "verdict": INCONSISTENT if z > threshold else CONSISTENT}
+        out[n] = {
+            "values": x.tolist(),
+            "se": se.tolist(),
+            "spread": spread,
+            "max_z": z,
+            "verdict": INCONSISTENT if z > threshold else CONSISTENT,
+        }
     return out

@@ -7,8 +7,7 @@ UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "min": 60.0},
     "voltage": {"V": 1.0, "mV": 1e-3, "kV": 1e3},
     "current": {"A": 1.0, "mA": 1e-3, "kA": 1e3},
-    "angular speed": {"rad/s": 1.0, "1/s": 1.0, "rpm": 2 * np.pi / 60, "1/min": 2 * np.pi / 60, "rev/s": 2 * np.pi,
-                      "deg/s": np.pi / 180},
+    "angular speed": {"rad/s": 1.0, "1/s": 1.0, "rpm": 2 * np.pi / 60, "1/min": 2 * np.pi / 60, "rev/s": 2 * np.pi, "deg/s": np.pi / 180},
     "angle": {"rad": 1.0, "deg": np.pi / 180, "rev": 2 * np.pi},
     "torque": {"Nm": 1.0, "mNm": 1e-3},
 }
@@ -52,7 +51,9 @@ def select_channels(
     known = ("t", *needed)
     bad = [c for c in (*columns, *units) if c not in known]
     if bad:
-        raise ValueError(f"{where}unknown channel(s) {', '.join(map(repr, sorted(set(bad))))}; this model's channels are {', '.join(known)}")
+        raise ValueError(
+            f"{where}unknown channel(s) {', '.join(map(repr, sorted(set(bad))))}; this model's channels are {', '.join(known)}"
+        )
     out = {}
     for c in known:
         src = columns.get(c, c)

@@ -9,7 +9,9 @@ from .problem import make_problem
 from .recording import Recording
 
 
-def stationary_instants(recording: Recording, count: int = 5, tol: float = 0.01, after: float | None = None, channel: str = "omega") -> np.ndarray:
+def stationary_instants(
+    recording: Recording, count: int = 5, tol: float = 0.01, after: float | None = None, channel: str = "omega"
+) -> np.ndarray:
     """Indices of `count` samples in steady operation, spread evenly over the steady part: the
     speed (`channel`) changes by less than `tol * max|w|` to both neighbours (and t >= `after`)."""
     w = recording[channel]

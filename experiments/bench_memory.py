@@ -12,10 +12,13 @@ import time
 import jax
 import jax.numpy as jnp
 
+import dcjax
 from dcjax import TABLE8, Params, load_csv, make_problem, objective
 from dcjax.datasets import DATA_DIR
 from dcjax.strategies.compact import compacted
 from dcjax.strategies.memory import Memory
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 
 def best_of(f, *args, reps=30):
@@ -35,7 +38,7 @@ def main():
     print(f"MD1: {len(rec)} samples; devices: {jax.device_count()} (timings on one)")
     for integ, nd in (("rk4", 1), ("rk4", 10)):
         prob = make_problem(rec, integrator=integ, nd=nd)
-        fn = lambda z: objective(Params.from_array(TABLE8.to_physical(z)), prob)  # noqa: E731
+        fn = lambda z, prob=prob: objective(Params.from_array(TABLE8.to_physical(z)), prob)
         for batch in (1, 25):
             z = jax.random.uniform(jax.random.PRNGKey(0), (batch, 70, 7))
             full = jax.jit(jax.vmap(fn))

@@ -16,15 +16,27 @@ from omegaconf import DictConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from cells import Cell, Store, run_cell  # noqa: E402
+from cells import Cell, Store, run_cell
+
+import dcjax
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="cell")
 def main(cfg: DictConfig) -> None:
     cell = Cell(
-        str(cfg.data), str(cfg.method), str(cfg.integrator), int(cfg.nd), float(cfg.w1), float(cfg.w2),
-        None if cfg.memory is None else str(cfg.memory), int(cfg.runs), int(cfg.budget),
-        None if cfg.generations is None else int(cfg.generations), int(cfg.seed),
+        str(cfg.data),
+        str(cfg.method),
+        str(cfg.integrator),
+        int(cfg.nd),
+        float(cfg.w1),
+        float(cfg.w2),
+        None if cfg.memory is None else str(cfg.memory),
+        int(cfg.runs),
+        int(cfg.budget),
+        None if cfg.generations is None else int(cfg.generations),
+        int(cfg.seed),
     )
     store = Store(cfg.store)
     entry = store.cells().get(cell.key)
@@ -33,8 +45,10 @@ def main(cfg: DictConfig) -> None:
         entry = store.cells()[cell.key]
     of = np.array([r["of"] for r in entry["runs"]])
     best = entry["runs"][int(np.argmin(of))]["params"]
-    print(f"{cell.key}\n  OF best {of.min():.4e} mean {of.mean():.4e} worst {of.max():.4e}; "
-          f"run {entry['meta']['run_s']:.2f} s\n  best: " + ", ".join(f"{k}={v:.5g}" for k, v in best.items()))
+    print(
+        f"{cell.key}\n  OF best {of.min():.4e} mean {of.mean():.4e} worst {of.max():.4e}; "
+        f"run {entry['meta']['run_s']:.2f} s\n  best: " + ", ".join(f"{k}={v:.5g}" for k, v in best.items())
+    )
 
 
 if __name__ == "__main__":

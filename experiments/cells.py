@@ -61,19 +61,43 @@ def run_cell(cell: Cell) -> list[dict]:
     """Run the cell; the store lines (one per run, then the completion line)."""
     rec = recording(cell.data)
     r = identify(
-        rec, method=cell.method, integrator=cell.integrator, nd=cell.nd, weights=(cell.w1, cell.w2), bounds=bounds_for(rec),
-        runs=cell.runs, budget=cell.budget, seed=cell.seed, memory=cell.memory, generations=cell.generations,
+        rec,
+        method=cell.method,
+        integrator=cell.integrator,
+        nd=cell.nd,
+        weights=(cell.w1, cell.w2),
+        bounds=bounds_for(rec),
+        runs=cell.runs,
+        budget=cell.budget,
+        seed=cell.seed,
+        memory=cell.memory,
+        generations=cell.generations,
     )
     base = dataclasses.asdict(cell) | {"key": cell.key}
     lines = []
     for k in range(cell.runs):
-        lines.append(base | {
-            "run": k, "of": float(r.run_of[k]), "params": dict(zip(PARAM_NAMES, map(float, r.run_params[k]))),
-            "fes": int(r.fes[k]), "iterations": int(r.iterations[k]), "dups": None if r.dups is None else int(r.dups[k]),
-            "chunks": None if r.memory_chunks is None else int(r.memory_chunks[k]),
-        })
-    lines.append({"key": cell.key, "complete": True, "runs": cell.runs, "run_s": r.timing["run_s"],
-                  "compile_s": r.timing["compile_s"], "devices": r.timing["devices"]})
+        lines.append(
+            base
+            | {
+                "run": k,
+                "of": float(r.run_of[k]),
+                "params": dict(zip(PARAM_NAMES, map(float, r.run_params[k]))),
+                "fes": int(r.fes[k]),
+                "iterations": int(r.iterations[k]),
+                "dups": None if r.dups is None else int(r.dups[k]),
+                "chunks": None if r.memory_chunks is None else int(r.memory_chunks[k]),
+            }
+        )
+    lines.append(
+        {
+            "key": cell.key,
+            "complete": True,
+            "runs": cell.runs,
+            "run_s": r.timing["run_s"],
+            "compile_s": r.timing["compile_s"],
+            "devices": r.timing["devices"],
+        }
+    )
     return lines
 
 

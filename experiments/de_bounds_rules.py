@@ -9,8 +9,11 @@ import argparse
 
 import numpy as np
 
+import dcjax
 from dcjax import TABLE4, datasets, identify
 from dcjax.strategies import DERand1Exp
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 
 def main():
@@ -26,7 +29,9 @@ def main():
         for init in ("uniform", "lhs"):
             r = identify(rec, method=DERand1Exp(bounds_rule=rule, init_rule=init), runs=args.runs, seed=0)
             at_hi = int(np.sum(np.any(np.isclose(r.run_params, hi, rtol=1e-9) & (r.run_of > 1e-15)[:, None], axis=1)))
-            print(f"{rule:12s} {init:8s} {int(np.sum(r.run_of <= 1e-15)):>6d}/{args.runs} {at_hi:>15d} {r.run_of.max():10.2e} {r.timing['run_s']:6.1f}")
+            print(
+                f"{rule:12s} {init:8s} {int(np.sum(r.run_of <= 1e-15)):>6d}/{args.runs} {at_hi:>15d} {r.run_of.max():10.2e} {r.timing['run_s']:6.1f}"
+            )
 
 
 if __name__ == "__main__":

@@ -9,9 +9,12 @@ import argparse
 
 import numpy as np
 
+import dcjax
 from dcjax import PARAM_NAMES, Recording, datasets
 from dcjax.fleet import identify_fleet
 from dcjax.reference import simulate_numpy
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 
 def main():

@@ -12,9 +12,12 @@ import time
 
 import numpy as np
 
+import dcjax
 from dcjax import PARAM_NAMES, identify, load_csv
 from dcjax.datasets import DATA_DIR
 from dcjax.validation import cross_validation, stationary_check
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 try:
     from runstore import RunStore
@@ -24,7 +27,14 @@ except ImportError:
 VARIANTS = [("EM", "euler", 1), ("EM5", "euler", 5), ("EM10", "euler", 10), ("RK", "rk4", 1), ("RK5", "rk4", 5), ("RK10", "rk4", 10)]
 TABLE18_TIMES = {"MD1": [2, 4, 6, 8, 10], "MD2": [2, 4, 6, 8, 10], "MD3": [2, 4, 6, 7, 8], "MD4": [4, 6, 8, 10, 12]}
 # Paper Table 24 (MD1, DE/rand/1/exp, means): Ra and Tla per variant; known Ra 5.66, Tla ~0.9.
-PAPER_T24 = {"EM": (11.56, 3.13e-16), "EM5": (5.63, 0.796), "EM10": (4.94, 0.800), "RK": (5.06, 0.799), "RK5": (4.25, 0.803), "RK10": (4.25, 0.803)}
+PAPER_T24 = {
+    "EM": (11.56, 3.13e-16),
+    "EM5": (5.63, 0.796),
+    "EM10": (4.94, 0.800),
+    "RK": (5.06, 0.799),
+    "RK5": (4.25, 0.803),
+    "RK10": (4.25, 0.803),
+}
 
 
 def main():
@@ -42,8 +52,16 @@ def main():
             if key in store.done():
                 continue
             r = identify(rec, method="de-rand-1-exp", integrator=integ, nd=nd, bounds="table8", runs=args.runs, seed=args.seed)
-            store.append({"key": key, "data": name, "variant": label, "run_of": r.run_of.tolist(),
-                          "run_params": r.run_params.tolist(), "timing": r.timing})
+            store.append(
+                {
+                    "key": key,
+                    "data": name,
+                    "variant": label,
+                    "run_of": r.run_of.tolist(),
+                    "run_params": r.run_params.tolist(),
+                    "timing": r.timing,
+                }
+            )
             print(f"done {key}: run {r.timing['run_s']:.1f} s", flush=True)
     res = {(r["data"], r["variant"]): r for r in store.records() if r["key"].endswith(f"runs={args.runs}/seed={args.seed}")}
 
@@ -58,9 +76,14 @@ def main():
             m = np.mean(r["run_params"], axis=0)
             print(f"  {label:5s} {f.min():10.4e} {f.std():9.2e} " + " ".join(f"{v:10.4g}" for v in m))
         print(f"  {'true':5s} {'':10s} {'':9s} " + " ".join(f"{truth[p]:10.4g}" for p in PARAM_NAMES))
-        print("  rel. error of RK:  " + ", ".join(
-            f"{p} {100 * (np.mean(res[(name, 'RK')]['run_params'], axis=0)[k] - truth[p]) / truth[p]:+.1f}%"
-            for k, p in enumerate(PARAM_NAMES) if p in ("Ra", "cm", "J", "Tla")))
+        print(
+            "  rel. error of RK:  "
+            + ", ".join(
+                f"{p} {100 * (np.mean(res[(name, 'RK')]['run_params'], axis=0)[k] - truth[p]) / truth[p]:+.1f}%"
+                for k, p in enumerate(PARAM_NAMES)
+                if p in ("Ra", "cm", "J", "Tla")
+            )
+        )
     print("\nMD1 beside paper Table 24 (Ra, Tla):")
     for label, _, _ in VARIANTS:
         m = np.mean(res[("MD1", label)]["run_params"], axis=0)
@@ -73,8 +96,10 @@ def main():
     print("\nTable 18 analogue (stationary points, RK fits):")
     for name, rec in recs.items():
         for row in stationary_check(rk_fit(name), rec, times=TABLE18_TIMES[name]):
-            print(f"  {name} t={row['t']:6.2f} i={row['i_meas']:6.3f} w={row['w_meas']:6.1f} u={row['u_meas']:6.1f} "
-                  f"u_calc={row['u_calc']:6.1f} ({row['u_dev_pct']:4.1f} %) i_calc={row['i_calc']:6.3f} ({row['i_dev_pct']:5.1f} %)")
+            print(
+                f"  {name} t={row['t']:6.2f} i={row['i_meas']:6.3f} w={row['w_meas']:6.1f} u={row['u_meas']:6.1f} "
+                f"u_calc={row['u_calc']:6.1f} ({row['u_dev_pct']:4.1f} %) i_calc={row['i_calc']:6.3f} ({row['i_dev_pct']:5.1f} %)"
+            )
 
     names = ["MD1", "MD2", "MD3"]
     rn, fn, m = cross_validation({n: rk_fit(n) for n in names}, {n: recs[n] for n in names})

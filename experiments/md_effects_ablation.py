@@ -9,8 +9,11 @@ import dataclasses
 
 import numpy as np
 
+import dcjax
 from dcjax import PARAM_NAMES, identify
 from dcjax.emulate import LAB_EFFECTS, Effects, emulate, md_settings
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 CASES = {
     "none": Effects(),
@@ -31,8 +34,10 @@ def main():
                 r = identify(rec, integrator="rk4", nd=nd, bounds="table8", runs=10, seed=0)
                 x = dict(zip(PARAM_NAMES, np.mean(r.run_params, axis=0)))
                 t = s.params
-                print(f"  {label:18s} RK{nd:<3d} OF {r.stats['best']:.2e}  Ra {100 * (x['Ra'] / t['Ra'] - 1):+6.1f}%  "
-                      f"J {100 * (x['J'] / t['J'] - 1):+6.1f}%  Tla {x['Tla']:.3f} (true {t['Tla']})  Tlc {x['Tlc']:.2e}")
+                print(
+                    f"  {label:18s} RK{nd:<3d} OF {r.stats['best']:.2e}  Ra {100 * (x['Ra'] / t['Ra'] - 1):+6.1f}%  "
+                    f"J {100 * (x['J'] / t['J'] - 1):+6.1f}%  Tla {x['Tla']:.3f} (true {t['Tla']})  Tlc {x['Tlc']:.2e}"
+                )
 
 
 if __name__ == "__main__":

@@ -9,9 +9,12 @@ import argparse
 
 import numpy as np
 
+import dcjax
 from dcjax import PARAM_NAMES, identify, load_csv
 from dcjax.datasets import DATA_DIR
 from dcjax.uncertainty import consistency
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 
 def main():

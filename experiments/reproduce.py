@@ -27,8 +27,12 @@ from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from cells import VARIANTS, Cell, Store, run_cell  # noqa: E402
-from report import write_report  # noqa: E402
+from cells import VARIANTS, Cell, Store, run_cell
+from report import write_report
+
+import dcjax
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 SUITES = ("table5", "md_methods", "weights", "nd", "memory")
 
@@ -46,7 +50,9 @@ def plan(cfg: DictConfig) -> list[Cell]:
     if "md_methods" in cfg.suites:
         cells += [Cell(d, m, *VARIANTS[v], runs=p.runs, **common) for d in p.md for v in p.md_variants for m in p.methods]
     if "weights" in cfg.suites:
-        cells += [Cell(d, "de-rand-1-exp", "rk4", 1, float(w), round(1.0 - float(w), 10), runs=p.runs, **common) for d in p.md for w in p.weights]
+        cells += [
+            Cell(d, "de-rand-1-exp", "rk4", 1, float(w), round(1.0 - float(w), 10), runs=p.runs, **common) for d in p.md for w in p.weights
+        ]
     if "nd" in cfg.suites or "memory" in cfg.suites:
         cells += [Cell(d, "de-rand-1-exp", *VARIANTS[v], runs=p.runs, **common) for d in p.md for v in p.variants]
     if "memory" in cfg.suites:
@@ -69,8 +75,11 @@ def main(cfg: DictConfig) -> None:
     done = store.cells()
     todo = [c for c in cells if c.key not in done]
     total = sum(c.runs for c in cells)
-    print(f"{len(cells)} cells ({total} runs) in suites {list(cfg.suites)}, profile {cfg.profile.name}; "
-          f"{len(cells) - len(todo)} already in {cfg.store}", flush=True)
+    print(
+        f"{len(cells)} cells ({total} runs) in suites {list(cfg.suites)}, profile {cfg.profile.name}; "
+        f"{len(cells) - len(todo)} already in {cfg.store}",
+        flush=True,
+    )
     t0 = time.perf_counter()
     with tqdm(total=total, initial=total - sum(c.runs for c in todo), unit="run", dynamic_ncols=True) as bar:
         for cell in todo:

@@ -13,7 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+import dcjax
 from dcjax import PARAM_NAMES, datasets, identify
+
+dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 
 try:
     from runstore import RunStore
@@ -41,10 +44,21 @@ def main():
             if key in store.done():
                 continue
             r = identify(rec, method=m, runs=args.runs, budget=args.budget, seed=args.seed)
-            store.append({"key": key, "data": name, "method": m, "run_of": r.run_of.tolist(),
-                          "run_params": r.run_params.tolist(), "fes": r.fes.tolist(), "timing": r.timing})
+            store.append(
+                {
+                    "key": key,
+                    "data": name,
+                    "method": m,
+                    "run_of": r.run_of.tolist(),
+                    "run_params": r.run_params.tolist(),
+                    "fes": r.fes.tolist(),
+                    "timing": r.timing,
+                }
+            )
             print(f"done {key}: run {r.timing['run_s']:.1f} s", flush=True)
-    rows = {(r["data"], r["method"]): r for r in store.records() if r["key"].endswith(f"runs={args.runs}/budget={args.budget}/seed={args.seed}")}
+    rows = {
+        (r["data"], r["method"]): r for r in store.records() if r["key"].endswith(f"runs={args.runs}/budget={args.budget}/seed={args.seed}")
+    }
     print(f"\nTable 5 ({args.runs} runs; paper: 50 runs). Each cell: dcjax | paper")
     for name, paper in PAPER_TABLE5.items():
         truth = np.array([datasets.true_params(name)[p] for p in PARAM_NAMES])

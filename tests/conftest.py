@@ -1,7 +1,7 @@
 import jax
 import pytest
 
-import dcjax  # noqa: F401  (enables x64)
+import dcjax
 from dcjax import datasets
 
 

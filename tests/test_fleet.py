@@ -30,8 +30,12 @@ def fleet_recordings(m, seed=0, n=201):
     t = np.arange(n) * 1e-4
     u = np.full(n, 220.0)
     traj = simulate_numpy(x, t, u)
-    return [Recording(t=t, u_a=u, i_a=traj[k, :, 0], omega=traj[k, :, 1], name=f"motor{k}",
-                      metadata={"true_params": dict(zip(PARAM_NAMES, x[k]))}) for k in range(m)]
+    return [
+        Recording(
+            t=t, u_a=u, i_a=traj[k, :, 0], omega=traj[k, :, 1], name=f"motor{k}", metadata={"true_params": dict(zip(PARAM_NAMES, x[k]))}
+        )
+        for k in range(m)
+    ]
 
 
 def test_sharded_fleet_equals_single_device():

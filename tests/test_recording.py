@@ -7,8 +7,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, TABLE4, TABLE8, Bounds, identify, Recording, bounds_preset, load_csv, make_problem, save_csv, trim_switch_on
-from dcjax import datasets
+from dcjax import (
+    PARAM_NAMES,
+    TABLE4,
+    TABLE8,
+    Bounds,
+    Recording,
+    bounds_preset,
+    datasets,
+    identify,
+    load_csv,
+    make_problem,
+    save_csv,
+    trim_switch_on,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -21,7 +21,7 @@ from report import without_times  # noqa: E402
 def test_store_ignores_torn_lines_and_unfinished_cells(tmp_path):
     s = Store(tmp_path / "s.jsonl")
     a, b = Cell("SD1", runs=2), Cell("SD2", runs=2)
-    run = lambda c, k: {"key": c.key, "run": k, "of": float(k)}  # noqa: E731
+    run = lambda c, k: {"key": c.key, "run": k, "of": float(k)}
     s.append([run(a, 0), run(a, 1), {"key": a.key, "complete": True, "runs": 2, "run_s": 1.0, "compile_s": 0.0}])
     s.append([run(b, 0)])  # killed before its second run and completion line
     with open(s.path, "a") as f:
@@ -35,7 +35,6 @@ def test_store_ignores_torn_lines_and_unfinished_cells(tmp_path):
 
 def _plan(overrides):
     from hydra import compose, initialize_config_dir
-
     from reproduce import plan
 
     with initialize_config_dir(config_dir=str(ROOT / "experiments" / "conf"), version_base="1.3"):
@@ -44,7 +43,7 @@ def _plan(overrides):
 
 def test_full_plan_has_the_papers_grid():
     cells = _plan([])
-    by = lambda **kw: [c for c in cells if all(getattr(c, k) == v for k, v in kw.items())]  # noqa: E731
+    by = lambda **kw: [c for c in cells if all(getattr(c, k) == v for k, v in kw.items())]
     assert len(by(data="SD1", memory=None)) == 5 and all(c.runs == 50 and c.budget == 140_000 for c in by(data="SD3"))
     assert len([c for c in cells if c.data.startswith("SD")]) == 20  # Table 5: 4 x 5
     assert len(by(data="MD2", memory=None, generations=None, runs=50, w1=1.0)) == 5 * 2 + 4  # Tables 11-12 + EM5..RK10
@@ -61,8 +60,16 @@ def test_unknown_suite_is_an_error():
 
 
 def _reproduce(tmp, *extra, wait=True):
-    cmd = [sys.executable, str(ROOT / "experiments" / "reproduce.py"), "profile=smoke", f"store={tmp}/store.jsonl",
-           f"report={tmp}/REPORT.md", f"figures={tmp}/figures", f"hydra.run.dir={tmp}/hydra", *extra]
+    cmd = [
+        sys.executable,
+        str(ROOT / "experiments" / "reproduce.py"),
+        "profile=smoke",
+        f"store={tmp}/store.jsonl",
+        f"report={tmp}/REPORT.md",
+        f"figures={tmp}/figures",
+        f"hydra.run.dir={tmp}/hydra",
+        *extra,
+    ]
     if wait:
         return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

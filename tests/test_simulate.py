@@ -40,9 +40,7 @@ def _diffrax_solution(p: Params, rec: Recording):
         dt0=1e-6,
         y0=jnp.zeros(2),
         saveat=diffrax.SaveAt(ts=t),
-        stepsize_controller=diffrax.ClipStepSizeController(
-            diffrax.PIDController(rtol=1e-13, atol=1e-13), jump_ts=t
-        ),
+        stepsize_controller=diffrax.ClipStepSizeController(diffrax.PIDController(rtol=1e-13, atol=1e-13), jump_ts=t),
         max_steps=200_000,
     )
     return np.asarray(sol.ys)
@@ -120,10 +118,7 @@ def test_nd1_is_the_plain_integrator(sd1, sd1_true):
 def test_nd_approaches_fine_solution(sd1, sd1_true, integrator):
     """Constant voltage: the error at the samples against ND = 256 shrinks as ND grows."""
     fine = np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=256)))
-    errs = [
-        np.max(np.abs(np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=nd))) - fine))
-        for nd in (1, 2, 5, 10)
-    ]
+    errs = [np.max(np.abs(np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=nd))) - fine)) for nd in (1, 2, 5, 10)]
     assert all(a > b for a, b in zip(errs, errs[1:])), errs
 
 
@@ -192,7 +187,7 @@ def test_objective_weights(sd1, sd1_true):
 def test_grad_matches_finite_differences(sd1, sd1_true):
     prob = make_problem(sd1)
     x0 = np.asarray(sd1_true.to_array()) * np.array([1.01, 0.99, 1.01, 1.02, 0.98, 1.05, 0.95])
-    f = lambda x: objective(Params.from_array(x), prob)  # noqa: E731
+    f = lambda x: objective(Params.from_array(x), prob)
     g = np.asarray(jax.grad(f)(jnp.asarray(x0)))
     jac = np.asarray(jax.jacfwd(f)(jnp.asarray(x0)))
     assert np.all(np.isfinite(g))

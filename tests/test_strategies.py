@@ -65,7 +65,7 @@ def test_fe_accounting(budget):
 def test_abc_counts_scouts():
     """Every candidate fails (non-finite), so after `limit` failures a scout flies each
     iteration and costs one FE: fewer iterations than (budget - SN) / 70."""
-    failing = lambda z: jnp.full(z.shape[0], jnp.nan)  # noqa: E731
+    failing = lambda z: jnp.full(z.shape[0], jnp.nan)
     out = _run("abc", failing, 140_000)
     assert int(out.fes) == 140_000
     assert int(out.iterations) < (140_000 - 35) // 70
@@ -89,7 +89,7 @@ def test_non_finite_never_selected(method):
 def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):
     s = make_strategy(method)
     keys = jax.random.split(jax.random.PRNGKey(7), 3)
-    f = lambda k: run(s, k, sd1_fn, 1400, 7)  # noqa: E731
+    f = lambda k: run(s, k, sd1_fn, 1400, 7)
     batched = jax.jit(jax.vmap(f))(keys)
     for r in range(3):
         single = jax.jit(f)(keys[r])
@@ -154,8 +154,10 @@ def test_evosax_adapter(name):
 def test_evosax_de_cross_checks_de_best_1_bin():
     """evosax's DifferentialEvolution with elitism is DE/best/1/bin; with F = 0.6, CR = 0.8 both
     implementations reach the sphere's optimum to a similar accuracy (median of 4 seeds)."""
-    ev = Evosax(name="DifferentialEvolution", params=dict(elitism=True, crossover_rate=0.8, differential_weight=0.6,
-                                                          differential_weight_min=0.6, differential_weight_max=0.6))
+    ev = Evosax(
+        name="DifferentialEvolution",
+        params=dict(elitism=True, crossover_rate=0.8, differential_weight=0.6, differential_weight_min=0.6, differential_weight_max=0.6),
+    )
     ours = DEBest1Bin()
     med = {}
     for label, s in (("evosax", ev), ("dcjax", ours)):

@@ -22,7 +22,7 @@ from typing import Any, ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, Float
 
 
 class Model(eqx.Module):
@@ -79,7 +79,9 @@ class Model(eqx.Module):
     def check_names(self, names, what: str = "parameter") -> None:
         bad = self.unknown(names)
         if bad:
-            raise ValueError(f"unknown {what} {', '.join(map(repr, bad))} for model {self.name}; its parameters are {', '.join(self.names)}")
+            raise ValueError(
+                f"unknown {what} {', '.join(map(repr, bad))} for model {self.name}; its parameters are {', '.join(self.names)}"
+            )
 
     def as_array(self, params) -> Float[Array, "*batch P"]:
         """A parameter vector (…, P) from an array, a name -> value mapping or a params module
@@ -96,7 +98,7 @@ class Model(eqx.Module):
             raise ValueError(f"parameter vector must have {self.n_params} entries {self.names}, got shape {x.shape}")
         return x
 
-    def as_dict(self, x: Float[ArrayLike, "*batch P"]) -> dict[str, Array]:
+    def as_dict(self, x: Float[Array, "*batch P"]) -> dict[str, Array]:
         """Name -> x[..., k]."""
         return {n: x[..., k] for k, n in enumerate(self.names)}
 

@@ -18,13 +18,27 @@ NAMES = ("Ra", "La", "cm", "J", "Tla", "Tlb", "Tlc")
 UNITS = {"Ra": "Ohm", "La": "H", "cm": "Vs", "J": "kg m^2", "Tla": "Nm", "Tlb": "Nm s", "Tlc": "Nm s^2"}
 
 # Table 4: limits for the simulated data SD1–SD4.
-TABLE4_LIMITS = {"Ra": (0.0, 100.0), "La": (0.0, 1.0), "cm": (0.0, 5.0), "J": (0.0, 1.0), "Tla": (0.0, 1.0),
-                 "Tlb": (0.0, 1e-3), "Tlc": (0.0, 1e-6)}
+TABLE4_LIMITS = {
+    "Ra": (0.0, 100.0),
+    "La": (0.0, 1.0),
+    "cm": (0.0, 5.0),
+    "J": (0.0, 1.0),
+    "Tla": (0.0, 1.0),
+    "Tlb": (0.0, 1e-3),
+    "Tlc": (0.0, 1e-6),
+}
 # Table 8: limits for the measured data MD1–MD4 (Tlb, Tlc: 20 Nm at 209 1/s).
 # The extracted text prints Tlc <= 4.56e-6, but the table's own rule gives 20/209^2 = 4.58e-4
 # and Table 9 reports a mean fitted Tlc of 4.99e-5, above 4.56e-6: the exponent is -4.
-TABLE8_LIMITS = {"Ra": (0.0, 100.0), "La": (0.0, 100.0), "cm": (0.0, 5.0), "J": (0.0, 1.0), "Tla": (0.0, 20.0),
-                 "Tlb": (0.0, 9.55e-2), "Tlc": (0.0, 4.56e-4)}
+TABLE8_LIMITS = {
+    "Ra": (0.0, 100.0),
+    "La": (0.0, 100.0),
+    "cm": (0.0, 5.0),
+    "J": (0.0, 1.0),
+    "Tla": (0.0, 20.0),
+    "Tlb": (0.0, 9.55e-2),
+    "Tlc": (0.0, 4.56e-4),
+}
 # Table 29: Ra < 1 mOhm, La < 1 mH, cm < 1 mVs, J < 1e-4 kgm^2, Tla < 1 mNm, Tlb < 5e-6 Nms and
 # Tlc < 2e-8 Nms^2 (1 mNm at 209 1/s).
 TABLE29_PRECISION = {"Ra": 1e-3, "La": 1e-3, "cm": 1e-3, "J": 1e-4, "Tla": 1e-3, "Tlb": 5e-6, "Tlc": 2e-8}
@@ -33,8 +47,8 @@ TABLE29_PRECISION = {"Ra": 1e-3, "La": 1e-3, "cm": 1e-3, "J": 1e-4, "Tla": 1e-3,
 class Coefficients(eqx.Module):
     """Eq. 8–9 divided through once per simulation:
 
-        di/dt = gu*u - a*i - b*w            (gu = 1/La, a = Ra/La, b = cm/La)
-        dw/dt = c*i - d - e*w - f*w^2       (c = cm/J, d = Tla/J, e = Tlb/J, f = Tlc/J)
+    di/dt = gu*u - a*i - b*w            (gu = 1/La, a = Ra/La, b = cm/La)
+    dw/dt = c*i - d - e*w - f*w^2       (c = cm/J, d = Tla/J, e = Tlb/J, f = Tlc/J)
     """
 
     gu: Float[Array, "*batch"]
@@ -51,8 +65,7 @@ class Coefficients(eqx.Module):
         g = p.__getitem__ if isinstance(p, dict) else p.__getattribute__
         inv_la = 1.0 / g("La")
         inv_j = 1.0 / g("J")
-        return cls(inv_la, g("Ra") * inv_la, g("cm") * inv_la, g("cm") * inv_j, g("Tla") * inv_j, g("Tlb") * inv_j,
-                   g("Tlc") * inv_j)
+        return cls(inv_la, g("Ra") * inv_la, g("cm") * inv_la, g("cm") * inv_j, g("Tla") * inv_j, g("Tlb") * inv_j, g("Tlc") * inv_j)
 
 
 def vector_field(k: Coefficients, u, i, w):

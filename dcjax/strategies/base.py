@@ -59,7 +59,8 @@ def evaluate(fn: FitnessFn, z: Float[Array, "P D"], state: State, budget: int) -
     f = jnp.where(found, f_rec, jnp.where(allowed, f_new, jnp.inf))
     z = jnp.where(found[:, None], x_rec, z)
     mem = mem.add(z, f_new, allowed)
-    return f, z, state.replace(fes=state.fes + jnp.sum(allowed), dups=state.dups + jnp.sum(found), memory=mem)
+    dups = jnp.asarray(0) if state.dups is None else state.dups
+    return f, z, state.replace(fes=state.fes + jnp.sum(allowed), dups=dups + jnp.sum(found), memory=mem)
 
 
 def initial_state(
@@ -233,4 +234,4 @@ def run(
 
     state, it, history = jax.lax.while_loop(cond, body, (state, jnp.asarray(0), history))
     chunks = jnp.asarray(0) if state.memory is None else state.memory.chunks
-    return RunOutput(state.best_x, state.best_f, state.fes, it, history, state.dups, chunks)
+    return RunOutput(state.best_x, state.best_f, state.fes, it, history, jnp.asarray(0) if state.dups is None else state.dups, chunks)

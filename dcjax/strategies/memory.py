@@ -28,9 +28,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from ..bounds import Bounds
 from ..models import DC, Model
 from ..models.dc import TABLE29_PRECISION
-from ..bounds import Bounds
 from ..space import Space, make_space
 
 MEMORY_KINDS = ("stma", "ltma-s1", "ltma-s2")
@@ -104,9 +104,7 @@ class Memory(eqx.Module):
             return Memory(pop, fit, jnp.asarray(pop.shape[0]), precision, zero, kind, pop.shape[0])
         capacity = max(int(capacity), pop.shape[0])
         chunk = min(chunk, capacity)
-        empty = Memory(
-            jnp.zeros((capacity, pop.shape[1]), pop.dtype), jnp.zeros(capacity, fit.dtype), zero, precision, zero, kind, chunk
-        )
+        empty = Memory(jnp.zeros((capacity, pop.shape[1]), pop.dtype), jnp.zeros(capacity, fit.dtype), zero, precision, zero, kind, chunk)
         return empty.add(pop, fit, evaluated)
 
     def lookup(self, z: Float[Array, "P D"]) -> tuple[Bool[Array, " P"], Float[Array, "P D"], Float[Array, " P"], "Memory"]:

@@ -1,0 +1,156 @@
+"""A lab's own files: delimiters, preambles, column maps, units, .npz/.mat, preprocessing, and the
+simulate / validate / report commands on a saved result."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dcjax
+from dcjax import Recording, datasets, load_recording, load_result
+from dcjax.cli import main
+
+RPM = 2 * np.pi / 60
+
+
+def write_daq(path: Path, rec: Recording, delimiter=";", decimal="."):
+    """SD1 as a DAQ would export it: a preamble, `;`, time in ms, current in mA, speed in rpm and
+    an extra column."""
+    rows = [
+        "# exported by LabDAQ 3.2",
+        "Device: bench 4; channel setup A",
+        "Sample rate: 10 kHz",
+        delimiter.join(["time_ms", "U_arm_V", "I_arm_mA", "speed_rpm", "temp_C"]),
+    ]
+    for k in range(len(rec)):
+        vals = [rec.t[k] * 1e3, rec.u_a[k], rec.i_a[k] * 1e3, rec.omega[k] / RPM, 21.5]
+        text = [repr(float(v)) for v in vals]
+        if decimal == ",":
+            text = [t.replace(".", ",") for t in text]
+        rows.append(delimiter.join(text))
+    path.write_text("\n".join(rows) + "\n")
+
+
+COLUMNS = {"t": "time_ms", "u_a": "U_arm_V", "i_a": "I_arm_mA", "omega": "speed_rpm"}
+UNITS = {"t": "ms", "i_a": "mA", "omega": "rpm"}
+
+
+@pytest.mark.parametrize("delimiter,decimal", [(";", "."), ("\t", "."), (",", "."), (";", ","), (" ", ".")])
+def test_daq_file_loads_to_the_same_recording(tmp_path, sd1, delimiter, decimal):
+    f = tmp_path / "daq.txt"
+    write_daq(f, sd1, delimiter, decimal)
+    rec = load_recording(f, columns=COLUMNS, units=UNITS, decimal=decimal)
+    for c in ("u_a", "i_a", "omega"):
+        np.testing.assert_allclose(rec[c], sd1[c], rtol=1e-14, atol=1e-300)
+    np.testing.assert_allclose(rec.t, sd1.t, rtol=1e-14, atol=1e-18)
+    src = rec.metadata["source"]
+    assert src["sha256"] and Path(src["path"]).name == "daq.txt" and src["load"]["units"] == UNITS
+
+
+def test_npz_mat_and_dataframe(tmp_path, sd1):
+    np.savez(tmp_path / "r.npz", time=sd1.t, u=sd1.u_a, i=sd1.i_a, n=sd1.omega / RPM)
+    cols = {"t": "time", "u_a": "u", "i_a": "i", "omega": "n"}
+    rec = load_recording(tmp_path / "r.npz", columns=cols, units={"omega": "1/min"})
+    np.testing.assert_allclose(rec.omega, sd1.omega, rtol=1e-14)
+    from scipy.io import savemat
+
+    savemat(tmp_path / "r.mat", {"time": sd1.t, "u": sd1.u_a, "i": sd1.i_a, "n": sd1.omega / RPM})
+    rec = load_recording(tmp_path / "r.mat", columns=cols, units={"omega": "rpm"})
+    np.testing.assert_allclose(rec.i_a, sd1.i_a, rtol=1e-14)
+    table = {"time": sd1.t * 1e3, "u": sd1.u_a, "i": sd1.i_a, "n": sd1.omega}
+    rec = Recording.from_dataframe(table, columns=cols, units={"t": "ms"})
+    np.testing.assert_allclose(rec.t, sd1.t, rtol=1e-14, atol=1e-18)
+
+
+def test_preprocessing(tmp_path, sd1):
+    f = tmp_path / "SD1.csv"
+    dcjax.save_csv(sd1, f)
+    rec = load_recording(f, window=(0.01, 0.03), every=2)
+    assert rec.t[0] >= 0.01 and rec.t[-1] <= 0.03 and np.allclose(np.diff(rec.t), 2e-4)
+    assert rec.metadata["source"]["load"] == {"window": [0.01, 0.03], "every": 2}
+
+
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        (dict(units={"omega": "furlong"}), "unknown unit 'furlong' for omega; accepted: rad/s, 1/s, rpm"),
+        (dict(units={"speed": "rpm"}), "unknown channel(s) 'speed'"),
+        (dict(columns={"t": "time"}), "no column 'time' for t; the columns are 'time_ms'"),
+        (dict(columns=COLUMNS, delimiter="|"), "delimiter must be one of"),
+        (dict(columns=COLUMNS, delimiter=","), "no numeric data rows"),
+        (dict(columns=COLUMNS, window="a:b"), "window must be T0:T1"),
+    ],
+)
+def test_loading_errors_are_clear(tmp_path, sd1, kw, match):
+    f = tmp_path / "daq.csv"
+    write_daq(f, sd1)
+    with pytest.raises(ValueError, match=match.replace("(", r"\(").replace(")", r"\)")):
+        load_recording(f, **kw)
+
+
+def test_daq_sd1_fits_like_sd1_and_the_commands_work(tmp_path, capsys):
+    """Issue 13's acceptance: the DAQ rewrite of SD1 fitted with --columns/--units gives SD1's
+    parameters within 1e-9; then report, validate and simulate on the saved result."""
+    sd1 = datasets.load("SD1")
+    f = tmp_path / "bench4.csv"
+    write_daq(f, sd1)
+    args = ["--columns", "t=time_ms,u_a=U_arm_V,i_a=I_arm_mA,omega=speed_rpm", "--units", "t=ms,i_a=mA,omega=rpm"]
+    assert main(["fit", str(f), *args, "--runs", "2", "--out", str(tmp_path / "daq")]) == 0
+    assert main(["fit", "SD1", "--runs", "2", "--out", str(tmp_path / "sd1")]) == 0
+    a = json.loads((tmp_path / "daq" / "result.json").read_text())
+    b = json.loads((tmp_path / "sd1" / "result.json").read_text())
+    for n in dcjax.PARAM_NAMES:
+        assert abs(a["params"][n] - b["params"][n]) <= 1e-9 * abs(b["params"][n]), n
+    assert a["settings"]["data"][0]["sha256"] and a["dcjax_version"]
+    capsys.readouterr()
+    res = tmp_path / "daq" / "result.json"
+    assert main(["report", str(res)]) == 0
+    out = capsys.readouterr().out
+    assert "[[Variables]]" in out and "fit % (bench4)" in out and "Ra:" in out
+    assert main(["validate", str(res), "SD1", str(f), *args, "--out", str(tmp_path / "v")]) == 0
+    rows = json.loads((tmp_path / "v" / "validation.json").read_text())
+    assert [r["recording"] for r in rows] == ["SD1", "bench4"] and all(r["fit_percent"]["i_a"] > 99.99 for r in rows)
+    assert main(["simulate", str(res), "SD1", "--out", str(tmp_path / "s")]) == 0
+    sim = np.genfromtxt(tmp_path / "s" / "simulated_SD1.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(sim["i_a_sim"], sd1.i_a, rtol=1e-6, atol=1e-9)
+    r = load_result(res)
+    assert r.recording is not None and r.recording.name == "bench4" and len(r.recording) == len(sd1)
+    assert "fit %" in str(r)
+
+
+@pytest.mark.parametrize(
+    "args,match",
+    [
+        (["fit", "FILE", "--units", "omega=furlong"], "unknown unit 'furlong'"),
+        (["fit", "FILE", "--columns", "t=nope"], "no column 'nope' for t"),
+        (["fit", "FILE", "--delimiter", "|"], "delimiter must be one of"),
+        (["report", "nothing.json"], "no such result file"),
+    ],
+)
+def test_cli_loading_errors_are_one_line(tmp_path, sd1, args, match):
+    f = tmp_path / "daq.csv"
+    write_daq(f, sd1)
+    args = [str(f) if a == "FILE" else a for a in args]
+    p = subprocess.run([sys.executable, "-m", "dcjax", *args], capture_output=True, text=True, cwd=tmp_path)
+    assert p.returncode == 2 and match in p.stderr and "Traceback" not in p.stderr and p.stderr.count("\n") == 1, p.stderr
+
+
+def test_version():
+    p = subprocess.run([sys.executable, "-m", "dcjax", "--version"], capture_output=True, text=True)
+    assert p.returncode == 0 and p.stdout.strip() == f"dcjax {dcjax.__version__}"
+
+
+def test_saving_a_plot_keeps_the_backend(sd1, tmp_path):
+    import matplotlib
+
+    before = matplotlib.get_backend()
+    r = dcjax.identify(sd1, runs=1, budget=140)
+    r.plot(tmp_path / "fit.png")
+    assert matplotlib.get_backend() == before and (tmp_path / "fit.png").stat().st_size > 10_000
+    from matplotlib.figure import Figure
+
+    ax = Figure().subplots(1, 2)
+    assert r.plot(ax=ax) is ax and len(ax[0].lines) == 2

@@ -76,7 +76,7 @@ def test_preprocessing(tmp_path, sd1):
 @pytest.mark.parametrize(
     "kw,match",
     [
-        (dict(units={"omega": "furlong"}), "unknown unit 'furlong' for omega; accepted: rad/s, 1/s, rpm"),
+        (dict(columns=COLUMNS, units={"omega": "furlong"}), "unknown unit 'furlong' for omega; accepted: rad/s, 1/s, rpm"),
         (dict(units={"speed": "rpm"}), "unknown channel(s) 'speed'"),
         (dict(columns={"t": "time"}), "no column 'time' for t; the columns are 'time_ms'"),
         (dict(columns=COLUMNS, delimiter="|"), "delimiter must be one of"),
@@ -124,7 +124,10 @@ def test_daq_sd1_fits_like_sd1_and_the_commands_work(tmp_path, capsys):
 @pytest.mark.parametrize(
     "args,match",
     [
-        (["fit", "FILE", "--units", "omega=furlong"], "unknown unit 'furlong'"),
+        (
+            ["fit", "FILE", "--columns", "t=time_ms,u_a=U_arm_V,i_a=I_arm_mA,omega=speed_rpm", "--units", "omega=furlong"],
+            "unknown unit 'furlong'",
+        ),
         (["fit", "FILE", "--columns", "t=nope"], "no column 'nope' for t"),
         (["fit", "FILE", "--delimiter", "|"], "delimiter must be one of"),
         (["report", "nothing.json"], "no such result file"),

@@ -1,0 +1,65 @@
+"""dcjax: DC motor and drive parameter identification in JAX.
+
+Implements Jesenik, Hamler, Trbušić, Trlep, "The Use of Evolutionary Methods for the
+Determination of a DC Motor and Drive Parameters Based on the Current and Angular Speed
+Response", Mathematics 2020, 8, 1269, for the paper's model and for any model written to the
+`dcjax.Model` protocol.
+
+Importing dcjax enables ``jax_enable_x64``: the paper's best objective values are ~1e-19,
+which float32 cannot resolve. It changes nothing else: for one CPU device per core (independent
+runs sharded over the cores), call ``dcjax.use_host_devices()`` before any JAX computation.
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+try:
+    __version__ = version("dcjax")
+except PackageNotFoundError:  # a source tree that was not installed
+    __version__ = "0+unknown"
+
+from .bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
+from .devices import use_host_devices  # noqa: E402
+from .identify import identify  # noqa: E402
+from .integrate import simulate  # noqa: E402
+from .loading import load_recording  # noqa: E402
+from .models import DC, MODELS, DCCoulomb, Model, get_model  # noqa: E402
+from .objectives import Problem, make_problem, objective, residuals  # noqa: E402
+from .params import PARAM_NAMES, Params  # noqa: E402
+from .recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
+from .result import IdentificationResult, load_result  # noqa: E402
+from .space import Space, make_space  # noqa: E402
+
+__all__ = [
+    "__version__",
+    "PARAM_NAMES",
+    "Params",
+    "Model",
+    "DC",
+    "DCCoulomb",
+    "MODELS",
+    "get_model",
+    "Bounds",
+    "TABLE4",
+    "TABLE8",
+    "bounds_preset",
+    "Space",
+    "make_space",
+    "Recording",
+    "load_csv",
+    "load_recording",
+    "save_csv",
+    "trim_switch_on",
+    "Problem",
+    "make_problem",
+    "simulate",
+    "objective",
+    "residuals",
+    "identify",
+    "IdentificationResult",
+    "load_result",
+    "use_host_devices",
+]

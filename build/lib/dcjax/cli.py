@@ -1,0 +1,302 @@
+"""`dcjax fit | simulate | validate | report`: identification and its checks from a shell."""
+
+import argparse
+import sys
+from pathlib import Path
+
+from .units import parse_mapping
+
+
+def _floats(text: str, what: str, n: int | None = None) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if n is not None and len(values) != n:
+        raise ValueError(f"{what} must be {n} comma-separated numbers, got {len(values)}")
+    return values
+
+
+def _named_floats(text: str | None, what: str) -> dict[str, float]:
+    out = {}
+    for k, v in parse_mapping(text, what).items():
+        try:
+            out[k] = float(v)
+        except ValueError:
+            raise ValueError(f"{what}: value of {k} must be a number, got {v!r}") from None
+    return out
+
+
+def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]:
+    out = {}
+    for k, v in parse_mapping(text, what).items():
+        lo, sep, hi = v.partition(":")
+        try:
+            out[k] = (float(lo), float(hi))
+        except ValueError:
+            raise ValueError(f"{what}: {k} needs LOWER:UPPER, got {v!r}") from None
+        if not sep:
+            raise ValueError(f"{what}: {k} needs LOWER:UPPER, got {v!r}")
+    return out
+
+
+def _add_data_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("reading the data")
+    g.add_argument("--columns", default=None, help="channel=column pairs, e.g. t=time_ms,u_a=U,i_a=I,omega=n (names or 0-based indices)")
+    g.add_argument("--units", default=None, help="channel=unit pairs, e.g. t=ms,i_a=mA,omega=rpm (converted to SI)")
+    g.add_argument("--delimiter", default=None, help="',', ';', 'tab' or 'whitespace' (default: detected)")
+    g.add_argument("--decimal", default=".", help="decimal separator, '.' or ','")
+    g.add_argument("--window", default=None, help="keep T0:T1 (seconds)")
+    g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
+    g.add_argument("--trim", action="store_true", help="cut the samples before the armature is switched on")
+    g.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
+
+
+def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+    from .strategies import METHODS
+
+    p = argparse.ArgumentParser(prog="dcjax", description="Motor and drive parameter identification (Jesenik et al. 2020).")
+    p.add_argument("--version", action="version", version=f"dcjax {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    f = sub.add_parser("fit", help="identify a model's parameters from recordings")
+    f.add_argument("data", nargs="+", help="data file(s) or embedded names (SD1..SD4, MD1..MD4); several = joint fit")
+    f.add_argument("--model", default="dc", help="dc (default), dc-coulomb or package.module:attr")
+    f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
+    f.add_argument("--integrator", default="rk4", choices=["euler", "rk4"])
+    f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
+    f.add_argument("--runs", type=int, default=50)
+    f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--weights", default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)")
+    f.add_argument(
+        "--bounds", default=None, help="a bounds preset of the model: table4 or table8 (default: table4, or the sidecar's 'bounds')"
+    )
+    f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. Ra=0:10,J=0:0.1")
+    f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
+    f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
+    f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. Ra=42.5,Tlc=0")
+    f.add_argument("--x0", default=None, help="start values seeding the initial population, e.g. Ra=40,J=2e-5")
+    f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
+    f.add_argument("--uncertainty", action="store_true", help="standard errors, 95%% intervals and identifiability")
+    f.add_argument("--memory", default=None, choices=["stma", "ltma-s1", "ltma-s2"], help="memory assistance (Section 4.4)")
+    f.add_argument("--precision", default=None, help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)")
+    f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
+    f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
+    _add_data_options(f)
+    s = sub.add_parser("simulate", help="simulate a saved result on a recording: CSV of measured and simulated channels, and a plot")
+    s.add_argument("result", help="result.json of a fit")
+    s.add_argument("data", help="data file or embedded name")
+    s.add_argument("--out", default="out", help="output folder")
+    _add_data_options(s)
+    v = sub.add_parser("validate", help="OF and fit %% per channel of a saved result on other recordings, with plots")
+    v.add_argument("result", help="result.json of a fit")
+    v.add_argument("data", nargs="+", help="data file(s) or embedded names")
+    v.add_argument("--out", default="out", help="output folder")
+    _add_data_options(v)
+    r = sub.add_parser("report", help="print the fit report of a saved result")
+    r.add_argument("result", help="result.json of a fit")
+    r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
+    return p
+
+
+def _load(data: str, args, model):
+    from . import datasets
+    from .loading import load_recording
+
+    if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
+        if any(getattr(args, k, None) for k in ("columns", "units", "window", "every", "trim")):
+            rec = datasets.load(data)
+            from .loading import preprocess
+
+            return preprocess(rec, args.window, args.every, args.trim)
+        return datasets.load(data)
+    return load_recording(
+        data,
+        columns=parse_mapping(args.columns, "--columns") or None,
+        units=parse_mapping(args.units, "--units") or None,
+        delimiter=args.delimiter,
+        decimal=args.decimal,
+        model=model,
+        i_limit=args.i_limit,
+        window=args.window,
+        every=args.every,
+        trim=args.trim,
+    )
+
+
+def fit(args) -> int:
+    import numpy as np
+
+    from .bounds import Bounds, resolve_bounds
+    from .identify import identify
+    from .models import get_model
+
+    model = get_model(args.model)
+    recs = [_load(d, args, model) for d in args.data]
+    rec = recs[0]
+    if args.nd == "auto":
+        nd = "auto"
+    else:
+        try:
+            nd = int(args.nd)
+        except ValueError:
+            raise ValueError(f"--nd must be a positive integer or 'auto', got {args.nd!r}") from None
+    weights = None if args.weights is None else tuple(_floats(args.weights, "--weights", len(model.outputs)))
+    if (args.lower is None) != (args.upper is None):
+        raise ValueError("--lower and --upper must be given together")
+    if args.lower is not None:
+        if args.bounds is not None:
+            raise ValueError("give either --bounds or --lower/--upper, not both")
+        bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
+    else:
+        preset = args.bounds or rec.metadata.get("bounds")
+        bounds = resolve_bounds(model, preset if preset in model.bounds or args.bounds else None)
+    bounds = resolve_bounds(model, bounds, _named_ranges(args.bound, "--bound"))
+    fixed = _named_floats(args.fix, "--fix")
+    x0 = _named_floats(args.x0, "--x0") or None
+    precision = None
+    if args.precision is not None:
+        precision = (
+            _named_floats(args.precision, "--precision")
+            if "=" in args.precision
+            else _floats(args.precision, "--precision", model.n_params)
+        )
+    result = identify(
+        recs,
+        method=args.method,
+        integrator=args.integrator,
+        nd=nd,
+        weights=weights,
+        bounds=bounds,
+        runs=args.runs,
+        budget=args.budget,
+        seed=args.seed,
+        polish=args.polish,
+        i_limit=args.i_limit,
+        memory=args.memory,
+        precision=precision,
+        generations=args.generations,
+        model=model,
+        fixed=fixed or None,
+        x0=x0,
+    )
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if args.uncertainty:
+        result.uncertainty()
+    result.to_json(out / "result.json")
+    result.plot(out / "fit.png")
+    truth = rec.metadata.get("true_params")
+    if any(r.metadata.get("true_params") != truth for r in recs) or not isinstance(truth, dict) or set(truth) != set(model.names):
+        truth = None
+    names = " + ".join(r.name for r in recs)
+    print(
+        f"{names}: model {model.name}, {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
+    )
+    for step in result.settings.get("nd_sequence", []):
+        change = "" if step["max_rel_change"] is None else f", max rel. change {step['max_rel_change']:.2e}"
+        print(f"  ND={step['nd']}: OF {step['of']:.4e}{change}")
+    header = f"{'param':>6} {'unit':>7} {'identified':>22}" + (f" {'true':>14} {'rel. error':>11}" if truth else "")
+    print(header)
+    for name in model.names:
+        v = result.params[name]
+        line = f"{name:>6} {model.units.get(name, ''):>7} {v:>22.15g}"
+        if truth:
+            t = truth[name]
+            line += f" {t:>14.6g} {abs(v - t) / abs(t) if t else abs(v):>11.2e}"
+        if name in result.fixed:
+            line += "  (fixed)"
+        print(line)
+    s = result.stats
+    print(f"OF best {s['best']:.4e}  worst {s['worst']:.4e}  mean {s['mean']:.4e}  std {s['std']:.4e}")
+    print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
+    if result.duplicates is not None:
+        d = result.duplicates
+        print(
+            f"memory {args.memory}: {d['percent']:.1f} % of candidates answered from memory; mean FEs {result.fes.mean():.0f}, iterations {result.iterations.mean():.0f}"
+        )
+    if args.uncertainty:
+        print(result._uncertainty.table())
+    print(
+        f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}"
+    )
+    return 0
+
+
+def _result(path):
+    from .result import load_result
+
+    return load_result(path)
+
+
+def simulate_cmd(args) -> int:
+    import numpy as np
+
+    res = _result(args.result)
+    rec = _load(args.data, args, res.model)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    sim = res.simulate(rec)
+    m = res.model
+    cols = ["t", *m.inputs, *(f"{c}_meas" for c in m.outputs), *(f"{s}_sim" for s in m.states)]
+    table = np.column_stack([rec.t, *(rec[c] for c in m.inputs), *(rec[c] for c in m.outputs), sim])
+    path = out / f"simulated_{rec.name}.csv"
+    np.savetxt(path, table, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    res.plot(out / f"simulated_{rec.name}.png", recordings=[rec])
+    print(f"wrote {path} and {out / f'simulated_{rec.name}.png'}")
+    return 0
+
+
+def validate_cmd(args) -> int:
+    from .objectives import objective
+    from .report import channel_fit
+
+    res = _result(args.result)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    recs = [_load(d, args, res.model) for d in args.data]
+    x = [res.params[n] for n in res.names]
+    print(f"{'recording':>12} {'OF':>12}  " + "  ".join(f"{'fit % ' + c:>14}" for c in res.model.outputs))
+    rows = []
+    for rec in recs:
+        of = float(objective(x, res.problems([rec])[0]))
+        fits = channel_fit(res, rec)
+        rows.append({"recording": rec.name, "of": of, "fit_percent": fits})
+        print(f"{rec.name:>12} {of:12.4e}  " + "  ".join(f"{v:14.3f}" for v in fits.values()))
+        res.plot(out / f"validate_{rec.name}.png", recordings=[rec])
+    import json
+
+    (out / "validation.json").write_text(json.dumps(rows, indent=2) + "\n")
+    print(f"wrote {out / 'validation.json'} and {len(recs)} plot(s) in {out}")
+    return 0
+
+
+def report_cmd(args) -> int:
+    res = _result(args.result)
+    if args.uncertainty:
+        res.uncertainty()
+    print(res.report())
+    return 0
+
+
+COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "report": report_cmd}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from .devices import use_host_devices
+
+    use_host_devices()
+    try:
+        return COMMANDS[args.command](args)
+    except ValueError as e:
+        print(f"dcjax: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"dcjax: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

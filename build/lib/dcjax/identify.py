@@ -1,0 +1,274 @@
+"""`identify`: independent evolutionary runs on one recording (or a joint set), batched into
+one compiled call, with an optional Levenberg–Marquardt polish (paper Sections 2–5)."""
+
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import PartitionSpec
+
+from .bounds import Bounds, resolve_bounds
+from .models import Model, get_model
+from .objectives import objective
+from .problem import make_problem
+from .recording import Recording
+from .result import IdentificationResult, model_spec
+from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
+from .space import Space, make_space
+from .strategies import Strategy, make_strategy, run
+from .strategies.base import FitnessFn
+from .strategies.memory import MEMORY_KINDS, physical_precision, unit_precision
+
+# The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
+# (other weights, bounds or recordings of equal length) reuse them.
+EXECUTABLES = ExecutableCache(size=4)
+
+
+def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim):
+    """All runs as one function of (keys, problems, space, precision, x0): data are arguments,
+    not constants, so recordings of equal length (and other weights or bounds) reuse one
+    executable."""
+
+    def one_run(key, problems, space, prec, x0):
+        def of(z):
+            x = space.to_physical(z)
+            return sum(w * objective(x, prob) for w, prob in zip(jw, problems))
+
+        fn: FitnessFn = of  # pyright: ignore[reportAssignmentType]
+        return run(strategy, key, fn, budget, dim, memory=memory, precision=prec, generations=generations, x0=x0)
+
+    batched = jax.vmap(one_run, in_axes=(0, None, None, None, None))
+    if memory is not None and mesh is not None:
+        # Each device runs its own vmapped batch, so compaction stays local to the device.
+        spec, rep = PartitionSpec("runs"), PartitionSpec()
+        batched = jax.shard_map(batched, mesh=mesh, in_specs=(spec, rep, rep, rep, rep), out_specs=spec, check_vma=False)
+    return jax.jit(batched)
+
+
+def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
+    """Start values as unit-cube rows (K, D) of the free parameters, NaN where not given. `x0`:
+    a name -> value mapping, a list of them, or full parameter vectors (K, P)."""
+    if x0 is None:
+        return None
+    rows = x0 if isinstance(x0, (list, tuple)) and x0 and isinstance(x0[0], dict) else [x0] if isinstance(x0, dict) else None
+    if rows is None:
+        full = np.atleast_2d(np.asarray(x0, dtype=np.float64))
+        if full.shape[-1] != model.n_params:
+            raise ValueError(f"x0 must be name -> value mappings or vectors of {model.n_params} values {model.names}")
+        rows = [dict(zip(model.names, r)) for r in full]
+    lo, hi = np.asarray(space.lower), np.asarray(space.upper)
+    out = np.full((len(rows), space.dim), np.nan)
+    for i, row in enumerate(rows):
+        model.check_names(row, "start value")
+        for n, v in row.items():
+            if n in space.fixed:
+                continue
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"start value of {n} must be a number, got {v!r}") from None
+            j = space.free_names.index(n)
+            if not lo[j] <= v <= hi[j]:
+                raise ValueError(f"start value {n}={v:g} lies outside its bounds [{lo[j]:g}, {hi[j]:g}]")
+            out[i, j] = (v - lo[j]) / (hi[j] - lo[j])
+    return out
+
+
+def _positive_int(name, v):
+    if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
+        raise ValueError(f"{name} must be a positive integer, got {v!r}")
+
+
+def identify(
+    recording: Recording | list[Recording],
+    method: str | Strategy = "de-rand-1-exp",
+    integrator: str = "rk4",
+    nd: int | str = 1,
+    weights: tuple[float, ...] | None = None,
+    bounds: Bounds | str | tuple | dict | None = None,
+    runs: int = 50,
+    budget: int = 140_000,
+    seed: int = 0,
+    polish: bool = False,
+    pop_size: int = 70,
+    i_limit: float | None = None,
+    strategy_options: dict | None = None,
+    joint_weights: list[float] | None = None,
+    nd_tol: float = 1e-3,
+    nd_max: int = 64,
+    memory: str | None = None,
+    precision=None,
+    generations: int | None = None,
+    model: Model | str | None = None,
+    fixed: dict[str, float] | None = None,
+    x0=None,
+) -> IdentificationResult:
+    """Identify the parameters of `model` (default: the paper's DC drive, `Ra, La, cm, J, Tla,
+    Tlb, Tlc`) from `recording`.
+
+    `runs` independent runs of `method` (paper defaults: NP = 70, 140,000 FEs) are `vmap`ped into
+    one compiled call; run r uses `jax.random.fold_in(PRNGKey(seed), r)`, so a run does not depend
+    on how many others are made. `bounds`: a `Bounds`, a preset name of the model (`"table4"`, the
+    default, or `"table8"`), a `(lower, upper)` pair, or a name -> (lower, upper) mapping over the
+    default preset. `fixed` (name -> value): known parameters, not searched (the strategies see
+    only the free ones). `x0`: start values (name -> value, or a list of them) that replace the
+    first members of every run's initial population. `polish=True` runs Levenberg–Marquardt from
+    every run's best.
+
+    Joint fit: a list of recordings of one drive (each with its own voltage, limit and initial
+    state) shares the parameters; the OF is the mean of their OFs, or the weighted sum with
+    `joint_weights` (Section 4.2.5's argument that MD1–MD3 must give one parameter set).
+
+    `nd="auto"` (paper Section 5): fit with ND = 1, 2, 4, ... until the best parameters change by
+    less than `nd_tol` (relative, floored at 1e-6 of the bound width) from one ND to its double;
+    returns the finer fit with the sequence in `settings["nd_sequence"]`.
+
+    `memory` (Section 4.4): `None`, `"stma"`, `"ltma-s1"` or `"ltma-s2"`; a candidate within
+    `precision` (physical units, default the model's: Table 29, see `dcjax.strategies.memory`)
+    of a record is not simulated and costs no FE, so the budget lasts longer; `generations` caps
+    the iterations (the paper's Tables 30–33 compare equal iteration counts: 1999 DE steps after
+    the initial population = 70 x 2000 candidates)."""
+    recordings = recording if isinstance(recording, (list, tuple)) else [recording]
+    if not recordings or not all(isinstance(r, Recording) for r in recordings):
+        raise ValueError("recording must be a dcjax.Recording or a non-empty list of them")
+    model = get_model(model)
+    if joint_weights is not None:
+        joint_weights = [float(w) for w in joint_weights]
+        if len(joint_weights) != len(recordings) or any(not w >= 0 for w in joint_weights) or sum(joint_weights) <= 0:
+            raise ValueError("joint_weights needs one non-negative weight per recording, not all zero")
+    common = dict(
+        method=method,
+        integrator=integrator,
+        weights=weights,
+        bounds=bounds,
+        runs=runs,
+        budget=budget,
+        seed=seed,
+        polish=polish,
+        pop_size=pop_size,
+        i_limit=i_limit,
+        strategy_options=strategy_options,
+        joint_weights=joint_weights,
+        memory=memory,
+        precision=precision,
+        generations=generations,
+        model=model,
+        fixed=fixed,
+        x0=x0,
+    )
+    if nd == "auto":
+        return _identify_auto_nd(recordings, nd_tol=nd_tol, nd_max=nd_max, **common)
+    for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
+        _positive_int(name, v)
+    if budget < pop_size:
+        raise ValueError(f"budget ({budget}) must be at least one population ({pop_size})")
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
+        raise ValueError(f"seed must be an integer, got {seed!r}")
+    if memory is not None and memory not in MEMORY_KINDS:
+        raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {memory!r}")
+    if generations is not None:
+        _positive_int("generations", generations)
+    assert not isinstance(nd, str)
+    b = resolve_bounds(model, bounds)
+    space = make_space(model, b, fixed)
+    prec = None if memory is None else jnp.asarray(unit_precision(precision, space, model))
+    z0 = start_values(x0, model, space)
+    strategy = make_strategy(method, pop_size=pop_size, **(strategy_options or {}))
+    problems = [make_problem(r, model=model, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit) for r in recordings]
+    jw = joint_weights or [1.0 / len(problems)] * len(problems)
+
+    devices = jax.devices() if runs > 1 else jax.devices()[:1]
+    mesh = mesh_of(devices, "runs")
+    keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
+    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
+    cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), leaf_signature(args))
+    t0 = time.perf_counter()
+    compiled, reused = EXECUTABLES.get(
+        cache_key, lambda: _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh, space.dim), args
+    )
+    t1 = time.perf_counter()
+    out = jax.block_until_ready(compiled(*args))
+    t2 = time.perf_counter()
+    out = jax.tree.map(lambda a: a[:runs], out)
+    run_x = np.asarray(space.to_physical(out.best_x))
+    run_of = np.asarray(out.best_f)
+    polish_info = None
+    if polish:
+        from .polish import polish_batch
+
+        t3 = time.perf_counter()
+        pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), problems, space, jw))
+        polish_info = {
+            "of_before": np.asarray(pol.of_before).tolist(),
+            "of_after": np.asarray(pol.of_after).tolist(),
+            "steps": np.asarray(pol.steps).tolist(),
+            "time_s": time.perf_counter() - t3,
+        }
+        run_x = np.asarray(pol.x)
+        run_of = np.asarray(pol.of_after)
+    best = int(np.argmin(run_of))
+    name = method if isinstance(method, str) else type(method).__name__
+    settings = {
+        "recording": recordings[0].name if len(recordings) == 1 else [r.name for r in recordings],
+        "data": [r.metadata.get("source", {"name": r.name}) for r in recordings],
+        "model": model_spec(model),
+        "joint_weights": joint_weights,
+        "method": name,
+        "integrator": integrator,
+        "nd": nd,
+        "weights": [float(w) for w in (weights if weights is not None else [1.0] * len(model.outputs))],
+        "bounds": {"lower": np.asarray(b.lower).tolist(), "upper": np.asarray(b.upper).tolist()},
+        "fixed": space.fixed,
+        "x0": None if z0 is None else (x0 if isinstance(x0, (dict, list)) else np.asarray(x0).tolist()),
+        "runs": runs,
+        "budget": budget,
+        "seed": seed,
+        "pop_size": pop_size,
+        "polish": polish,
+        "i_limit": i_limit,
+        "memory": memory,
+        "precision": None if memory is None else physical_precision(precision, model).tolist(),
+        "generations": generations,
+        "strategy": repr(strategy),
+    }
+    return IdentificationResult(
+        params=dict(zip(model.names, map(float, run_x[best]))),
+        of=float(run_of[best]),
+        run_of=run_of,
+        run_params=run_x,
+        fes=np.asarray(out.fes),
+        iterations=np.asarray(out.iterations),
+        history=np.asarray(out.history),
+        settings=settings,
+        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": len(devices), "reused_executable": reused},
+        polish=polish_info,
+        dups=None if memory is None else np.asarray(out.dups),
+        memory_chunks=None if memory is None else np.asarray(out.chunks),
+        recordings=list(recordings),
+        model=model,
+        fixed=space.fixed,
+    )
+
+
+def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
+    model = kw["model"]
+    space = make_space(model, resolve_bounds(model, kw["bounds"]), kw["fixed"])
+    floor = 1e-6 * np.asarray(space.bounds.upper - space.bounds.lower)
+    floor = np.where(floor > 0, floor, 1e-300)
+    sequence, prev, nd = [], None, 1
+    while True:
+        res = identify(recordings, nd=nd, **kw)
+        x = np.array([res.params[n] for n in model.names])
+        change = None if prev is None else float(np.max(np.abs(x - prev) / np.maximum(np.abs(prev), floor)))
+        sequence.append({"nd": nd, "of": res.of, "params": res.params, "max_rel_change": change})
+        if (change is not None and change < nd_tol) or 2 * nd > nd_max:
+            break
+        prev, nd = x, 2 * nd
+    res.settings["nd_sequence"] = sequence
+    res.settings["nd_auto"] = {
+        "tol": nd_tol,
+        "max": nd_max,
+        "converged": sequence[-1]["max_rel_change"] is not None and sequence[-1]["max_rel_change"] < nd_tol,
+    }
+    return res

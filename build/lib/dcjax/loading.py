@@ -1,0 +1,221 @@
+"""Loading a lab's own recordings: delimited text (CSV/TSV/TXT with preambles), `.npz` and
+MATLAB `.mat` files, columns mapped to a model's channels, units converted to SI, and the
+preprocessing (time window, decimation, switch-on trimming) recorded with the data's origin."""
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from .models import Model, get_model
+from .recording import Recording, read_sidecar, trim_switch_on
+from .units import select_channels
+
+DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None}
+TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
+
+
+def _number(field: str, decimal: str) -> float:
+    return float(field.replace(decimal, ".") if decimal != "." else field)
+
+
+def _numeric(fields: list[str], decimal: str) -> bool:
+    try:
+        for f in fields:
+            _number(f, decimal)
+    except ValueError:
+        return False
+    return True
+
+
+def _detect_delimiter(lines: list[str], decimal: str) -> str | None:
+    """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields
+    (and the lines before it, as far as they are data, into as many)."""
+    for d in (";", "\t", ",", None):
+        if d == "," and decimal == ",":
+            continue
+        last = _split(lines[-1], d)
+        if len(last) >= 2 and _numeric(last, decimal):
+            return d
+    raise ValueError("cannot detect the delimiter (tried ';', tab, ',', whitespace); give delimiter=/--delimiter")
+
+
+def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> dict[str, np.ndarray]:
+    """Column name -> values of a delimited text file. `#` lines and a preamble are skipped: the
+    data are the trailing block of numeric rows, the header the line just before it (columns
+    are named by 0-based index where there is none)."""
+    if decimal not in (".", ","):
+        raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
+    text = path.read_text(errors="replace")
+    lines = [x for x in text.splitlines() if x.strip() and not x.lstrip().startswith("#")]
+    if not lines:
+        raise ValueError(f"{path}: no data rows")
+    if delimiter is None:
+        delim = _detect_delimiter(lines, decimal)
+    elif delimiter in DELIMITERS:
+        delim = DELIMITERS[delimiter]
+    else:
+        raise ValueError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
+    if delim == "," and decimal == ",":
+        raise ValueError("delimiter and decimal separator cannot both be ','")
+    rows = [_split(x, delim) for x in lines]
+    width = len(rows[-1])
+    start = len(rows)
+    while start > 0 and len(rows[start - 1]) == width and _numeric(rows[start - 1], decimal):
+        start -= 1
+    if start == len(rows) or width < 2:
+        raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+    header = rows[start - 1] if start > 0 and len(rows[start - 1]) == width else [str(k) for k in range(width)]
+    header = [h.strip().strip('"').strip("'") for h in header]
+    if len(set(header)) != len(header):
+        raise ValueError(f"{path}: repeated column names in the header {header}")
+    data = np.array([[_number(f, decimal) for f in r] for r in rows[start:]], dtype=np.float64)
+    return {h: data[:, k] for k, h in enumerate(header)}
+
+
+def read_npz(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as z:
+        return {k: np.asarray(z[k]).ravel() for k in z.files if np.asarray(z[k]).size > 1}
+
+
+def read_mat(path: Path) -> dict[str, np.ndarray]:
+    try:
+        from scipy.io import loadmat
+    except ImportError:
+        raise ValueError("reading .mat files needs scipy (pip install scipy)") from None
+    try:
+        m = loadmat(path)
+    except Exception as e:  # scipy raises several types for a bad file
+        raise ValueError(f"{path}: not a readable MATLAB file ({e})") from None
+    out = {}
+    for k, v in m.items():
+        if k.startswith("__"):
+            continue
+        a = np.asarray(v)
+        if a.dtype.kind in "fiu" and a.size > 1:
+            if a.ndim == 2 and min(a.shape) > 1:  # a matrix: one column each
+                for j in range(a.shape[1]):
+                    out[f"{k}[{j}]"] = a[:, j].astype(float)
+            else:
+                out[k] = a.ravel().astype(float)
+    return out
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _window(text_or_pair) -> tuple[float, float] | None:
+    if text_or_pair is None:
+        return None
+    if isinstance(text_or_pair, str):
+        parts = text_or_pair.split(":")
+        if len(parts) != 2:
+            raise ValueError(f"window must be T0:T1 (seconds), got {text_or_pair!r}")
+        try:
+            return (float(parts[0]) if parts[0] else -np.inf, float(parts[1]) if parts[1] else np.inf)
+        except ValueError:
+            raise ValueError(f"window must be T0:T1 (seconds), got {text_or_pair!r}") from None
+    a, b = text_or_pair
+    return float(a), float(b)
+
+
+def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool | float = False) -> Recording:
+    """Keep t in `window` = (T0, T1) (s), then every `every`-th sample, then trim before the
+    switch-on (`trim=True` or a threshold fraction of max|u|, `dcjax.trim_switch_on`)."""
+    w = _window(window)
+    if w is not None:
+        keep = (rec.t >= w[0]) & (rec.t <= w[1])
+        if keep.sum() < 3:
+            raise ValueError(f"window {w[0]}:{w[1]} keeps {int(keep.sum())} samples (need at least 3; t runs {rec.t[0]}..{rec.t[-1]} s)")
+        rec = rec.select(keep)
+    if every is not None:
+        if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
+            raise ValueError(f"every must be a positive integer, got {every!r}")
+        rec = rec.select(slice(None, None, int(every)))
+    if trim:
+        rec = trim_switch_on(rec, threshold=0.02 if trim is True else float(trim))
+    return rec
+
+
+def load_recording(
+    path: str | Path,
+    columns: dict | None = None,
+    units: dict | None = None,
+    delimiter: str | None = None,
+    decimal: str = ".",
+    model: Model | str | None = None,
+    name: str | None = None,
+    i_limit: float | None = None,
+    window=None,
+    every: int | None = None,
+    trim: bool | float = False,
+) -> Recording:
+    """A recording from a file, with the model's channels (default: the paper's `t, u_a, i_a,
+    omega`) in SI units.
+
+    - Text (`.csv .tsv .txt .dat`): the delimiter (`,` `;` tab, whitespace) is detected unless
+      given; `#` lines and a preamble before the header are skipped; extra columns are ignored;
+      `decimal=","` reads `1,5` as 1.5. Also `.npz` (arrays by name) and MATLAB `.mat`.
+    - `columns`: channel -> column name (or 0-based index), e.g. `{"t": "time_ms", "i_a": "I"}`;
+      a channel not mapped is looked up by its own name.
+    - `units`: channel -> unit (`t`: s, ms, us; voltage: V, mV, kV; current: A, mA; speed: rad/s,
+      rpm, 1/min, rev/s, deg/s), converted to SI.
+    - A JSON sidecar with the same stem supplies the name, the current limit (`i_a_limit`) and
+      metadata; `i_limit` overrides it.
+    - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
+      (cut before switch-on) — recorded, with the file's path and sha256, in
+      `metadata["source"]`, so a saved result can reload the same data."""
+    m = get_model(model)
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no such file: {path}")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        table = read_npz(path)
+    elif suffix == ".mat":
+        table = read_mat(path)
+    elif suffix in TEXT_SUFFIXES or suffix == "":
+        table = read_table(path, delimiter, decimal)
+    else:
+        raise ValueError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
+    needed = tuple(c for c in m.channels)
+    chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ")
+    meta = read_sidecar(path)
+    limit = i_limit if i_limit is not None else meta.get("i_a_limit")
+    t = chans.pop("t")
+    rec = Recording(t=t, channels=chans, i_a_limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
+    rec = preprocess(rec, window, every, trim)
+    load = {
+        "columns": columns or None,
+        "units": units or None,
+        "delimiter": delimiter,
+        "decimal": decimal,
+        "window": _window(window) and list(_window(window) or ()),
+        "every": every,
+        "trim": trim,
+        "i_limit": i_limit,
+        "model": None if model is None else (m.name if isinstance(model, str) else None),
+    }
+    load = {k: v for k, v in load.items() if v not in (None, False) and not (k == "decimal" and v == ".")}
+    return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})
+
+
+def recording_from_table(table, columns=None, units=None, model=None, name: str = "", i_limit=None) -> Recording:
+    """A recording from any column table (a pandas DataFrame, a dict of arrays, a structured array)."""
+    m = get_model(model)
+    if hasattr(table, "columns") and hasattr(table, "__getitem__"):
+        cols = {str(c): np.asarray(table[c]) for c in table.columns}
+    elif isinstance(table, dict):
+        cols = {str(k): np.asarray(v) for k, v in table.items()}
+    elif getattr(table, "dtype", None) is not None and table.dtype.names:
+        cols = {n: np.asarray(table[n]) for n in table.dtype.names}
+    else:
+        raise ValueError("table must be a DataFrame, a dict of arrays or a structured array")
+    chans = select_channels(cols, m.channels, columns, units, m.quantities)
+    t = chans.pop("t")
+    return Recording(t=t, channels=chans, i_a_limit=i_limit, name=name)

@@ -1,0 +1,130 @@
+"""The model protocol: everything that is specific to one motor or drive model.
+
+A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (paper eq. 6–9) and
+`DCCoulomb` show the protocol; a model from outside the package subclasses `Model` and sets:
+
+- `names`, `units`: the parameters, in the order of a parameter vector `x[..., k]`;
+- `states`, `inputs`: the integrated states and the recorded inputs (channel names of a
+  `Recording`); `measured`: the states the objective compares with the recording (default all);
+- `bounds`: named bound presets `{preset: {name: (lower, upper)}}`, the first is the default;
+- `precision`: the memory-assistance duplicate precision per parameter (paper Table 29 for `DC`);
+- `quantities`: channel -> physical quantity (`dcjax.units.UNITS`), so a loader can convert units;
+- `limited_state`: the state the supply's limit clamps after every sub-step (`"i_a"` for a drive
+  with a current limit), or None;
+- `coefficients(p)`: hoisted per-simulation quantities (1/La, Ra/La, ...) from the parameter dict;
+- `vector_field(c, u, y)`: dy/dt as a tuple, from the coefficients, the inputs and the states;
+- optionally `steady_state(p, channels)`: the model's stationary relations (dy/dt = 0) as
+  predicted channel values, used by `dcjax.validation.stationary_check` (paper eq. 25–26).
+"""
+
+from typing import Any, ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+
+class Model(eqx.Module):
+    """Base class of motor and drive models; see the module docstring for the protocol."""
+
+    names: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[dict[str, str]] = {}
+    states: ClassVar[tuple[str, ...]] = ()
+    inputs: ClassVar[tuple[str, ...]] = ()
+    measured: ClassVar[tuple[str, ...] | None] = None
+    bounds: ClassVar[dict[str, dict[str, tuple[float, float]]]] = {}
+    precision: ClassVar[dict[str, float] | None] = None
+    limited_state: ClassVar[str | None] = None
+    quantities: ClassVar[dict[str, str]] = {}  # channel -> quantity ("voltage", ...) for unit conversion
+
+    # -- what a model defines -------------------------------------------------------------
+    def coefficients(self, p: dict[str, Array]) -> Any:
+        """Quantities computed once per simulation from the parameters (default: the dict)."""
+        return p
+
+    def vector_field(self, c: Any, u: tuple[Array, ...], y: tuple[Array, ...]) -> tuple[Array, ...]:
+        raise NotImplementedError
+
+    def steady_state(self, p: dict[str, float], channels: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Channel values the model predicts in stationary operation from the other channels."""
+        raise NotImplementedError(f"model {self.name!r} defines no steady-state relations")
+
+    # -- derived ------------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return type(self).__name__
+
+    @property
+    def n_params(self) -> int:
+        return len(self.names)
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """The measured states (channels the objective compares)."""
+        return tuple(self.states if self.measured is None else self.measured)
+
+    @property
+    def output_index(self) -> tuple[int, ...]:
+        return tuple(self.states.index(s) for s in self.outputs)
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """Every channel a recording must hold for this model: inputs, then measured states."""
+        return tuple(self.inputs) + self.outputs
+
+    def unknown(self, names) -> list[str]:
+        return [n for n in names if n not in self.names]
+
+    def check_names(self, names, what: str = "parameter") -> None:
+        bad = self.unknown(names)
+        if bad:
+            raise ValueError(
+                f"unknown {what} {', '.join(map(repr, bad))} for model {self.name}; its parameters are {', '.join(self.names)}"
+            )
+
+    def as_array(self, params) -> Float[Array, "*batch P"]:
+        """A parameter vector (…, P) from an array, a name -> value mapping or a params module
+        with one attribute per name."""
+        if isinstance(params, dict):
+            missing = [n for n in self.names if n not in params]
+            if missing:
+                raise ValueError(f"missing parameters {missing} for model {self.name}; need all of {self.names}")
+            return jnp.stack([jnp.asarray(params[n], dtype=jnp.float64) for n in self.names], axis=-1)
+        if all(hasattr(params, n) for n in self.names) and not hasattr(params, "shape"):
+            return jnp.stack([jnp.asarray(getattr(params, n), dtype=jnp.float64) for n in self.names], axis=-1)
+        x = jnp.asarray(params, dtype=jnp.float64)
+        if x.ndim == 0 or x.shape[-1] != self.n_params:
+            raise ValueError(f"parameter vector must have {self.n_params} entries {self.names}, got shape {x.shape}")
+        return x
+
+    def as_dict(self, x: Float[Array, "*batch P"]) -> dict[str, Array]:
+        """Name -> x[..., k]."""
+        return {n: x[..., k] for k, n in enumerate(self.names)}
+
+    def to_floats(self, x) -> dict[str, float]:
+        """Python floats by name (unbatched parameters only)."""
+        x = np.asarray(self.as_array(x))
+        return {n: float(x[k]) for k, n in enumerate(self.names)}
+
+    def bound_arrays(self, preset: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) of a bounds preset (default: the model's first)."""
+        if not self.bounds:
+            raise ValueError(f"model {self.name} has no bounds presets; give bounds explicitly")
+        key = next(iter(self.bounds)) if preset is None else preset.lower()
+        if key not in self.bounds:
+            raise ValueError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(self.bounds)}")
+        b = self.bounds[key]
+        return np.array([b[n][0] for n in self.names], float), np.array([b[n][1] for n in self.names], float)
+
+    def precision_array(self) -> np.ndarray:
+        if self.precision is None:
+            raise ValueError(f"model {self.name} defines no memory precision; pass precision= explicitly")
+        return np.array([self.precision[n] for n in self.names], float)
+
+    def clamp(self, y: tuple[Array, ...], limit) -> tuple[Array, ...]:
+        """|y[limited_state]| <= limit (the supply's current limit, Section 4, Fig. 4)."""
+        if limit is None or self.limited_state is None:
+            return y
+        k = self.states.index(self.limited_state)
+        return y[:k] + (jnp.clip(y[k], -limit, limit),) + y[k + 1 :]

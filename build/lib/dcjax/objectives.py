@@ -1,0 +1,58 @@
+"""The objective function, paper eq. 24 and its weighted form eq. 27."""
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .integrate import advance, prepare, simulate, split_inputs, step_inputs
+from .problem import Problem, make_problem
+
+__all__ = ["Problem", "make_problem", "objective", "residuals", "population_objective"]
+
+
+def _finite_or_inf(of):
+    return jnp.where(jnp.isfinite(of), of, jnp.inf)
+
+
+def objective(params, problem: Problem) -> Float[Array, "*batch"]:
+    """Eq. 27 (eq. 24 for unit weights), over the model's measured channels y_c:
+
+        OF = 1/N sum_k sum_c w_c ((y_c,k - y*_c,k) / max|y*_c|)^2
+
+    over all N samples of the recording (k = 0 is the initial state). The sum is accumulated
+    inside the time scan, so no trajectory is stored. A non-finite simulation (La or J at 0,
+    overflow) gives +inf, never NaN. Batched `params` give one OF per member."""
+    c, y = prepare(params, problem)
+    m = problem.u_start.shape[1]
+    outs = problem.model.output_index
+    scale = [problem.scale[j] for j in range(len(outs))]
+
+    def misfit(acc, y, meas):
+        for j, (o, s) in enumerate(zip(outs, scale)):
+            acc = acc + s * (y[o] - meas[j]) ** 2
+        return acc
+
+    acc = misfit(0.0, y, problem.y_meas[0])
+
+    def body(carry, x):
+        y, acc = carry
+        h, ua, ub = split_inputs(x, m)
+        y = advance(c, problem, y, h, ua, ub)
+        return (y, misfit(acc, y, x[1 + 2 * m :])), None
+
+    xs = jnp.concatenate([step_inputs(problem), problem.y_meas[1:]], axis=1)
+    (_, acc), _ = jax.lax.scan(body, (y, acc), xs, unroll=problem.unroll)
+    return _finite_or_inf(acc)
+
+
+def population_objective(x: Float[Array, "P D"], problem: Problem) -> Float[Array, " P"]:
+    """OF of every row of `x` (physical units, the model's `names` order)."""
+    return objective(x, problem)
+
+
+def residuals(params, problem: Problem) -> Float[Array, "*batch cn"]:
+    """Residual vector r with sum(r**2) == objective: sqrt(w_c/N)(y_c - y*_c)/max|y*_c| for every
+    sample of the first channel, then the next channel. Used by the Levenberg–Marquardt polish."""
+    traj = simulate(params, problem)
+    outs = problem.model.output_index
+    return jnp.concatenate([jnp.sqrt(problem.scale[j]) * (traj[..., o] - problem.y_meas[:, j]) for j, o in enumerate(outs)], axis=-1)

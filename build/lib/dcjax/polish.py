@@ -1,0 +1,73 @@
+"""Levenberg–Marquardt polish (optimistix) of an evolutionary result on the residual vector of
+eq. 24/27, over the free parameters, with the bounds kept by a reparametrization."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from jaxtyping import Array, Float
+
+from .objectives import residuals
+from .problem import Problem
+from .space import Space
+
+
+class PolishResult(eqx.Module):
+    x: Float[Array, " P"]
+    of_before: Float[Array, ""]
+    of_after: Float[Array, ""]
+    steps: Array
+
+
+def _to_free(z, eps):
+    """Unit-cube point -> unbounded variable, z = (sin(y) + 1) / 2 inverted (kept off the edge)."""
+    return jnp.arcsin(2.0 * jnp.clip(z, eps, 1.0 - eps) - 1.0)
+
+
+def _to_unit(y):
+    """z = (sin(y) + 1) / 2 lies in [0, 1] for every y, so the bounds always hold."""
+    return 0.5 * (jnp.sin(y) + 1.0)
+
+
+def stacked_residuals(x, problems: list[Problem], weights: list[float]):
+    """Residuals of several recordings (a joint fit), each scaled by sqrt(its weight)."""
+    return jnp.concatenate([jnp.sqrt(w) * residuals(x, prob) for w, prob in zip(weights, problems)])
+
+
+def polish(
+    x: Float[Array, " P"],
+    problem: Problem | list[Problem],
+    space: Space,
+    joint_weights: list[float] | None = None,
+    rtol: float = 1e-12,
+    atol: float = 1e-14,
+    max_steps: int = 200,
+) -> PolishResult:
+    """Minimize sum(r(x)^2) (= OF) with `optx.LevenbergMarquardt` from `x` (physical units, all
+    parameters) over the free parameters of `space`; fixed ones stay at their values.
+
+    Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
+    (relative) of a bound is moved that far inside. The result is only accepted when its OF is
+    not larger than the start's; returns arrays only (no `optx.Solution`), so it vmaps."""
+    eps = 1e-12
+    problems = problem if isinstance(problem, list) else [problem]
+    jw = joint_weights or [1.0 / len(problems)] * len(problems)
+
+    def of(x):
+        r = stacked_residuals(x, problems, jw)
+        return jnp.sum(r * r)
+
+    def fn(y, _):
+        return stacked_residuals(space.to_physical(_to_unit(y)), problems, jw)
+
+    y0 = _to_free(space.to_unit(x), eps)
+    sol = optx.least_squares(fn, optx.LevenbergMarquardt(rtol=rtol, atol=atol), y0, max_steps=max_steps, throw=False)
+    x_new = space.to_physical(_to_unit(sol.value))
+    of0 = of(x)
+    of1 = of(x_new)
+    better = of1 <= of0
+    return PolishResult(jnp.where(better, x_new, x), of0, jnp.where(better, of1, of0), sol.stats["num_steps"])
+
+
+polish_jit = eqx.filter_jit(polish)
+polish_batch = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None, None)))

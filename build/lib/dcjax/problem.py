@@ -1,0 +1,146 @@
+"""A recording prepared for simulation with a model: the sample grid, the inputs, the scaled
+targets of the objective (paper eq. 24, 27) and the integration settings (eq. 28–29)."""
+
+from typing import Literal
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .models import Model, get_model
+from .recording import Recording
+
+Integrator = Literal["euler", "rk4"]
+INTEGRATORS = ("euler", "rk4")
+
+
+class Problem(eqx.Module):
+    """Everything `simulate` and `objective` need, as arrays.
+
+    Sample k = 0 is the initial state; interval k (k = 1..N-1) integrates from t[k-1] to
+    t[k] with step h[k-1] = t[k] - t[k-1], split into `nd` equal sub-steps (eq. 28) with the
+    inputs interpolated linearly between u[k-1] and u[k] (eq. 29)."""
+
+    model: Model
+    h: Float[Array, " n-1"]
+    u_start: Float[Array, "n-1 m"]
+    u_end: Float[Array, "n-1 m"]
+    y_meas: Float[Array, "n c"]  # the model's measured states (`model.outputs`)
+    y0: Float[Array, " s"]  # initial state
+    limit: Float[Array, ""] | None  # on `model.limited_state`
+    scale: Float[Array, " c"]  # w_c / (N * max|y_c|^2)
+    integrator: str = eqx.field(static=True, default="rk4")
+    nd: int = eqx.field(static=True, default=1)
+    unroll: int = eqx.field(static=True, default=1)
+
+    @property
+    def n(self) -> int:
+        return self.y_meas.shape[0]
+
+    def measured(self, channel: str) -> Float[Array, " n"]:
+        return self.y_meas[:, self.model.outputs.index(channel)]
+
+    # The paper's channels, for the default model.
+    @property
+    def i_meas(self):
+        return self.measured("i_a")
+
+    @property
+    def w_meas(self):
+        return self.measured("omega")
+
+
+def _positive_int(name, v):
+    if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
+        raise ValueError(f"{name} must be a positive integer, got {v!r}")
+
+
+def make_problem(
+    recording: Recording,
+    integrator: Integrator | str = "rk4",
+    nd: int = 1,
+    weights: tuple[float, ...] | None = None,
+    voltage: float | None = None,
+    i0: float | None = None,
+    w0: float | None = None,
+    i_limit: float | None = None,
+    unroll: int = 1,
+    model: Model | str | None = None,
+    initial: dict[str, float] | None = None,
+) -> Problem:
+    """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
+
+    - `integrator`: `"euler"` (eq. 11–12) or `"rk4"` (eq. 14–23).
+    - `nd`: sub-steps per sample interval (eq. 28); the inputs are interpolated (eq. 29).
+    - `weights`: one weight per measured channel (w1, w2 of eq. 27). The paper's eq. 24 is all
+      ones, the default, so OF values compare directly with Tables 5, 9–16; eq. 27 uses
+      w1 + w2 = 1 (e.g. (0.5, 0.5) is half of eq. 24).
+    - `voltage`: a constant first input (step response) instead of the recorded one.
+    - `initial`: initial state by state name; default the recording's first sample (a state the
+      recording lacks starts at 0). `i0`, `w0`: the same for the paper's i_a and omega.
+    - `i_limit`: the supply's limit on `model.limited_state`; default the recording's
+      `i_a_limit` (None: no limit).
+    """
+    model = get_model(model)
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
+    _positive_int("nd", nd)
+    _positive_int("unroll", unroll)
+    outs = model.outputs
+    if weights is None:
+        weights = (1.0,) * len(outs)
+    try:
+        w = np.array([float(x) for x in weights])
+    except (TypeError, ValueError):
+        raise ValueError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}") from None
+    if w.shape != (len(outs),):
+        raise ValueError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}")
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() == 0:
+        raise ValueError(f"weights must be non-negative, finite and not all zero, got {weights!r}")
+    missing = [c for c in model.channels if c not in recording.channels]
+    if missing:
+        raise ValueError(
+            f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has {', '.join(recording.channels)}"
+        )
+    t = recording.t
+    u = np.stack([recording[c] for c in model.inputs], axis=1) if model.inputs else np.zeros((len(t), 0))
+    if voltage is not None:
+        if not model.inputs:
+            raise ValueError(f"model {model.name} has no input to set a constant voltage on")
+        u = u.copy()
+        u[:, 0] = float(voltage)
+    if not np.all(np.isfinite(u)):
+        raise ValueError("voltage must be finite")
+    limit = recording.i_a_limit if i_limit is None else float(i_limit)
+    if limit is not None and not limit > 0:
+        raise ValueError(f"current limit must be positive, got {limit}")
+    y = np.stack([recording[c] for c in outs], axis=1)
+    peak = np.max(np.abs(y), axis=0)
+    for c, m in zip(outs, peak):
+        if not m > 0:
+            raise ValueError(f"{recording._where()}column {c!r} is all zero (the objective divides by its maximum)")
+    init = dict(initial or {})
+    if i0 is not None:
+        init["i_a"] = i0
+    if w0 is not None:
+        init["omega"] = w0
+    bad = [s for s in init if s not in model.states]
+    if bad:
+        raise ValueError(f"unknown state(s) {bad} for model {model.name}; its states are {model.states}")
+    y0 = [float(init[s]) if s in init else float(recording[s][0]) if s in recording.channels else 0.0 for s in model.states]
+    n = t.shape[0]
+    f64 = lambda x: jnp.asarray(x, dtype=jnp.float64)
+    return Problem(
+        model=model,
+        h=f64(np.diff(t)),
+        u_start=f64(u[:-1]),
+        u_end=f64(u[1:]),
+        y_meas=f64(y),
+        y0=f64(y0),
+        limit=None if limit is None or model.limited_state is None else f64(limit),
+        scale=f64(w / (n * peak**2)),
+        integrator=integrator,
+        nd=int(nd),
+        unroll=int(unroll),
+    )

@@ -1,0 +1,210 @@
+"""Recorded (or simulated) drive responses: time and named channels (SI units).
+
+The paper's drive has the channels `u_a` (V), `i_a` (A) and `omega` (rad/s); a model names the
+channels it needs (`Model.channels`). CSV layout: header `t,<channel>,...`, one row per sample.
+Metadata (name, current limit, true parameters, how the file was made) lives in an optional
+JSON sidecar with the same stem (`SD1.csv` -> `SD1.json`). Other layouts and units:
+`dcjax.load_recording`."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+COLUMNS = ("t", "u_a", "i_a", "omega")
+DC_CHANNELS = COLUMNS[1:]
+
+
+class Recording:
+    """A validated response: strictly increasing time `t` (s), equally long finite channels,
+    the supply's current limit `i_a_limit` (A) or None, a name and free-form metadata.
+
+    `Recording(t=..., u_a=..., i_a=..., omega=...)` for the paper's channels, or
+    `Recording(t=..., channels={"u_a": ..., "i_a": ..., "omega": ..., "theta": ...})`.
+    Channels are read as attributes (`rec.i_a`) or by `rec[name]`."""
+
+    __slots__ = ("t", "channels", "i_a_limit", "name", "metadata")
+
+    def __init__(self, t, u_a=None, i_a=None, omega=None, *, channels=None, i_a_limit=None, name: str = "", metadata=None):
+        object.__setattr__(self, "name", str(name or ""))
+        chans = dict(channels or {})
+        for key, v in (("u_a", u_a), ("i_a", i_a), ("omega", omega)):
+            if v is not None:
+                chans[key] = v
+        if not chans:
+            raise ValueError(f"{self._where()}a recording needs at least one channel besides t")
+        arrays = {}
+        for col, v in {"t": t, **chans}.items():
+            try:
+                a = np.array(v, dtype=np.float64)
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"{self._where()}column {col!r} is not numeric: {e}") from None
+            if a.ndim != 1:
+                raise ValueError(f"{self._where()}column {col!r} must be one-dimensional, got shape {a.shape}")
+            arrays[col] = a
+        lengths = {c: a.shape[0] for c, a in arrays.items()}
+        if len(set(lengths.values())) != 1:
+            raise ValueError(f"{self._where()}columns have different lengths: {lengths}")
+        n = lengths["t"]
+        if n < 3:
+            raise ValueError(f"{self._where()}need at least 3 samples, got {n}")
+        for col, a in arrays.items():
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:
+                raise ValueError(f"{self._where()}column {col!r} has NaN/inf at row {int(bad[0])} ({bad.size} in all)")
+        tt = arrays.pop("t")
+        dt = np.diff(tt)
+        if np.any(dt <= 0):
+            k = int(np.flatnonzero(dt <= 0)[0])
+            raise ValueError(f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
+        limit = i_a_limit
+        if limit is not None:
+            try:
+                limit = float(limit)
+            except (TypeError, ValueError):
+                limit = float("nan")
+            if not np.isfinite(limit) or limit <= 0:
+                raise ValueError(f"{self._where()}current limit must be a positive number, got {i_a_limit!r}")
+        for a in (tt, *arrays.values()):
+            a.setflags(write=False)
+        object.__setattr__(self, "t", tt)
+        object.__setattr__(self, "channels", arrays)
+        object.__setattr__(self, "i_a_limit", limit)
+        object.__setattr__(self, "metadata", dict(metadata or {}))
+
+    def __getattr__(self, key):
+        try:
+            return object.__getattribute__(self, "channels")[key]
+        except (KeyError, AttributeError):
+            raise AttributeError(f"recording {object.__getattribute__(self, 'name')!r} has no channel {key!r}") from None
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key == "t":
+            return self.t
+        if key not in self.channels:
+            raise ValueError(f"{self._where()}no channel {key!r}; it has {', '.join(self.channels)}")
+        return self.channels[key]
+
+    def __setattr__(self, key, value):
+        raise AttributeError("Recording is immutable; use .replace(...)")
+
+    def __eq__(self, other):
+        if not isinstance(other, Recording):
+            return NotImplemented
+        return (
+            self.name == other.name
+            and self.i_a_limit == other.i_a_limit
+            and np.array_equal(self.t, other.t)
+            and self.channels.keys() == other.channels.keys()
+            and all(np.array_equal(self.channels[k], other.channels[k]) for k in self.channels)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"Recording(name={self.name!r}, n={len(self)}, channels={list(self.channels)}, i_a_limit={self.i_a_limit})"
+
+    def _where(self) -> str:
+        name = object.__getattribute__(self, "name")
+        return f"recording {name!r}: " if name else ""
+
+    def __len__(self) -> int:
+        return self.t.shape[0]
+
+    def replace(self, **changes) -> "Recording":
+        """A copy with fields (`t`, `i_a_limit`, `name`, `metadata`, `channels`) or single
+        channels (`i_a=...`) replaced."""
+        chans = dict(changes.pop("channels", self.channels))
+        for k in list(changes):
+            if k not in ("t", "i_a_limit", "name", "metadata"):
+                chans[k] = changes.pop(k)
+        kw = {"t": self.t, "i_a_limit": self.i_a_limit, "name": self.name, "metadata": self.metadata, **changes}
+        return Recording(channels=chans, **kw)
+
+    @classmethod
+    def from_dataframe(cls, df, columns=None, units=None, model=None, name: str = "", i_limit=None) -> "Recording":
+        """From a pandas DataFrame (or a dict of arrays): `columns` maps channels to column names,
+        `units` converts to SI (see `dcjax.load_recording`)."""
+        from .loading import recording_from_table
+
+        return recording_from_table(df, columns=columns, units=units, model=model, name=name, i_limit=i_limit)
+
+    def select(self, index) -> "Recording":
+        """The samples at `index` (a slice or index array) of every channel."""
+        return self.replace(t=self.t[index], channels={k: v[index] for k, v in self.channels.items()})
+
+
+def load_csv(path: str | Path, name: str | None = None) -> Recording:
+    """Read a `t,<channels>` CSV in SI units (dcjax's own layout; `t,u_a,i_a,omega` for the
+    paper's drive) and its JSON sidecar, if present. Other layouts: `dcjax.load_recording`."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no such file: {path}")
+    lines = path.read_text().splitlines()
+    if not lines:
+        raise ValueError(f"{path}: file is empty")
+    header = [h.strip() for h in lines[0].split(",")]
+    if header[0] != "t" or len(header) < 2 or len(set(header)) != len(header) or not all(header):
+        raise ValueError(f"{path}: header must be t,<channel>,... (e.g. {','.join(COLUMNS)}), got {lines[0]!r}")
+    rows = []
+    for lineno, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        fields = line.split(",")
+        if len(fields) != len(header):
+            raise ValueError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)} (ragged row)")
+        try:
+            rows.append([float(f) for f in fields])
+        except ValueError:
+            raise ValueError(f"{path}:{lineno}: non-numeric value in {line!r}") from None
+    if not rows:
+        raise ValueError(f"{path}: no data rows")
+    data = np.asarray(rows, dtype=np.float64)
+    meta = read_sidecar(path)
+    return Recording(
+        t=data[:, 0],
+        channels={h: data[:, k] for k, h in enumerate(header) if k},
+        i_a_limit=meta.get("i_a_limit"),
+        name=name or meta.get("name") or path.stem,
+        metadata=meta,
+    )
+
+
+def read_sidecar(path: Path) -> dict:
+    sidecar = Path(path).with_suffix(".json")
+    if not sidecar.is_file():
+        return {}
+    try:
+        meta = json.loads(sidecar.read_text())
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{sidecar}: invalid JSON: {e}") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{sidecar}: must hold a JSON object")
+    return meta
+
+
+def save_csv(recording: Recording, path: str | Path, metadata: dict | None = None) -> None:
+    """Write the CSV with full float64 precision (`repr`), and a JSON sidecar holding the
+    name, the current limit and `metadata` (merged over `recording.metadata`)."""
+    path = Path(path)
+    names = list(recording.channels)
+    cols = [recording.t] + [recording.channels[c] for c in names]
+    lines = [",".join(["t", *names])]
+    lines += [",".join(repr(float(c[k])) for c in cols) for k in range(len(recording))]
+    path.write_text("\n".join(lines) + "\n")
+    meta = {**recording.metadata, **(metadata or {}), "name": recording.name, "i_a_limit": recording.i_a_limit}
+    path.with_suffix(".json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
+
+
+def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: bool = False, channel: str = "u_a") -> Recording:
+    """Keep only the part after the armature is switched on (paper Fig. 6).
+
+    Switch-on shows as the first sample whose |u| (channel `channel`) exceeds
+    `threshold * max|u|`; it and the samples after it are kept, and the simulation starts from it
+    (its measured states are the initial state). With `rezero_time`, time restarts at 0 there."""
+    u = np.abs(recording[channel])
+    if not u.max() > 0:
+        raise ValueError(f"{recording._where()}voltage is zero everywhere: no switch-on to find")
+    start = int(np.flatnonzero(u > threshold * u.max())[0])
+    out = recording.select(slice(start, None))
+    return out.replace(t=out.t - out.t[0]) if rezero_time else out

@@ -1,0 +1,71 @@
+"""A fit report to paste into lab notes, in the manner of lmfit's `fit_report`, and the
+goodness-of-fit figures it uses (fit % as MATLAB's `compare`: 100 (1 - NRMSE))."""
+
+import numpy as np
+
+
+def fit_percent(measured: np.ndarray, simulated: np.ndarray) -> float:
+    """100 (1 - ||y - y_sim|| / ||y - mean(y)||): 100 is a perfect fit, 0 no better than the mean."""
+    y = np.asarray(measured, float)
+    d = np.linalg.norm(y - y.mean())
+    return float(100 * (1 - np.linalg.norm(y - np.asarray(simulated, float)) / d)) if d > 0 else float("nan")
+
+
+def channel_fit(result, recording) -> dict[str, float]:
+    """Fit % of every measured channel of `recording` under the result's best parameters."""
+    sim = result.simulate(recording)
+    m = result.model
+    return {c: fit_percent(recording[c], sim[:, m.states.index(c)]) for c in m.outputs}
+
+
+def fit_report(result, correl_threshold: float = 0.9) -> str:
+    """Model, settings, OF statistics, fit % per channel, every parameter with its standard
+    error (where `result.uncertainty()` was computed), fixed and at-bound flags, and the strongly
+    correlated pairs."""
+    s = result.settings
+    m = result.model
+    st = result.stats
+    lines = ["[[Model]]", f"    {m.name}: {', '.join(m.names)}"]
+    lines += [
+        "[[Fit Statistics]]",
+        f"    method             = {s['method']}, {s['integrator']}, ND = {s['nd']}",
+        f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}" + (", LM polish" if s.get("polish") else ""),
+    ]
+    for rec in result.recordings:
+        lines.append(f"    data               = {rec.name} ({len(rec)} samples, t {rec.t[0]:g}..{rec.t[-1]:g} s)")
+    if not result.recordings:
+        lines.append(f"    data               = {s.get('recording')} (not loaded)")
+    lines.append(f"    objective (best)   = {st['best']:.6e}")
+    lines.append(f"    objective W/M/SD   = {st['worst']:.4e} / {st['mean']:.4e} / {st['std']:.4e}")
+    for rec in result.recordings:
+        fits = channel_fit(result, rec)
+        lines.append(
+            f"    fit % ({rec.name})" + " " * max(1, 11 - len(rec.name)) + "= " + ", ".join(f"{c} {v:.3f}" for c, v in fits.items())
+        )
+    u = result._uncertainty
+    lines.append("[[Variables]]")
+    at_bound = set(result.at_bound())
+    width = max(len(n) for n in m.names)
+    for n in m.names:
+        v = result.params[n]
+        unit = m.units.get(n, "")
+        text = f"    {n + ':':<{width + 1}} {v: .10g}"
+        if n in result.fixed:
+            text += " (fixed)"
+        elif u is not None:
+            se = u.se[n]
+            rel = f" ({100 * se / abs(v):.2f}%)" if v else ""
+            text += f" +/- {se:.3g}{rel}"
+        text += f" {unit}" if unit else ""
+        if n in at_bound:
+            text += "  [at bound]"
+        if u is not None and n not in result.fixed and u.verdict[n] != "well determined":
+            text += f"  [{u.verdict[n]}: {u.reason[n]}]"
+        lines.append(text)
+    if u is None:
+        lines.append("    (standard errors: call result.uncertainty(), or dcjax fit --uncertainty)")
+    else:
+        pairs = u.strong_correlations(correl_threshold)
+        lines.append(f"[[Correlations]] (unreported correlations are < {correl_threshold:.3f})")
+        lines += [f"    C({a}, {b}) = {c:+.4f}" for a, b, c in pairs] or ["    none"]
+    return "\n".join(lines)

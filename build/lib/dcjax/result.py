@@ -1,0 +1,235 @@
+"""The result of an identification: best parameters, per-run results and their statistics
+(paper Section 3.1, Tables 5–6: best B, worst W, mean M and standard deviation SD over runs),
+its JSON form and its restoration without refitting."""
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .bounds import Bounds
+from .models import Model, get_model
+from .problem import make_problem
+from .recording import Recording
+from .space import Space, make_space
+
+
+def model_spec(model: Model) -> str:
+    """A string `get_model` resolves back: a built-in name or `module:Class`."""
+    from .models import MODELS
+
+    if type(model) is MODELS.get(model.name):
+        return model.name
+    return f"{type(model).__module__}:{type(model).__qualname__}"
+
+
+@dataclasses.dataclass
+class IdentificationResult:
+    """Best parameters over all runs, per-run results and their statistics."""
+
+    params: dict[str, float]
+    of: float
+    run_of: np.ndarray  # (R,)
+    run_params: np.ndarray  # (R, P), physical units, model order
+    fes: np.ndarray  # (R,) real evaluations
+    iterations: np.ndarray  # (R,)
+    history: np.ndarray  # (R, T) best OF after each iteration (NaN past a run's end)
+    settings: dict
+    timing: dict
+    polish: dict | None = None
+    dups: np.ndarray | None = None  # (R,) candidates answered from memory
+    memory_chunks: np.ndarray | None = None  # (R,) memory chunks searched
+    recordings: list[Recording] = dataclasses.field(default_factory=list, repr=False)
+    model: Model = dataclasses.field(default_factory=get_model, repr=False)
+    fixed: dict[str, float] = dataclasses.field(default_factory=dict)
+    _uncertainty: object = dataclasses.field(default=None, repr=False)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.model.names
+
+    @property
+    def recording(self) -> Recording | None:
+        """The (first) fitted recording."""
+        return self.recordings[0] if self.recordings else None
+
+    @property
+    def bounds(self) -> Bounds:
+        b = self.settings["bounds"]
+        return Bounds(b["lower"], b["upper"], self.names)
+
+    @property
+    def space(self) -> Space:
+        return make_space(self.model, self.bounds, self.fixed)
+
+    def problems(self, recordings=None):
+        """The settings' problems (integrator, ND, weights, limit) for `recordings` (default: the
+        fitted ones)."""
+        s = self.settings
+        recs = self.recordings if recordings is None else recordings
+        if not recs:
+            raise ValueError("no recording: the result was loaded without its data; pass a recording")
+        return [
+            make_problem(r, model=self.model, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]), i_limit=s["i_limit"])
+            for r in recs
+        ]
+
+    _problems = problems
+
+    def uncertainty(self, profile: str | None = None, profile_points: int = 11):
+        """Standard errors, 95 % intervals, correlations and identifiability verdicts at the best
+        parameters (`dcjax.uncertainty`); fixed parameters are known. With `profile="Tla"` also a
+        profile likelihood over the 95 % interval of that parameter (`.profile = (values, OFs)`)."""
+        from .uncertainty import profile as profile_fn
+        from .uncertainty import uncertainty
+
+        space = self.space
+        x = np.array([self.params[n] for n in self.names])
+        jw = self.settings.get("joint_weights")
+        u = uncertainty(x, self.problems(), space, weights=jw)
+        if profile is not None:
+            self.model.check_names([profile])
+            lo, hi = u.ci95[profile]
+            k = self.names.index(profile)
+            b = space.bounds
+            grid = np.linspace(max(lo, float(b.lower[k])), min(hi, float(b.upper[k])), profile_points)
+            u.profile = (grid, profile_fn(x, profile, grid, self.problems(), space, weights=jw))
+        self._uncertainty = u
+        return u
+
+    @property
+    def stats(self) -> dict[str, float]:
+        """B, W, M, SD of the per-run best OF (Table 5; SD is the population std, ddof = 0)."""
+        f = self.run_of
+        return {"best": float(f.min()), "worst": float(f.max()), "mean": float(f.mean()), "std": float(f.std())}
+
+    @property
+    def duplicates(self) -> dict[str, float] | None:
+        """Memory use (Tables 30–33): mean candidates answered from memory per run and that as a
+        percentage of all candidates proposed, `pop_size` x (iterations + 1) (the paper's
+        convention, 70 x 2000 = 140,000)."""
+        if self.dups is None:
+            return None
+        proposed = self.settings["pop_size"] * (self.iterations + 1)
+        return {"mean": float(self.dups.mean()), "percent": float(100 * np.mean(self.dups / proposed))}
+
+    @property
+    def mean_params(self) -> dict[str, float]:
+        """Mean of each parameter over runs (Table 6)."""
+        return dict(zip(self.names, map(float, self.run_params.mean(axis=0))))
+
+    def at_bound(self, rtol: float = 1e-9) -> list[str]:
+        """Free parameters that ended on a search bound."""
+        b = self.bounds
+        lo, hi = np.asarray(b.lower), np.asarray(b.upper)
+        out = []
+        for k, n in enumerate(self.names):
+            if n in self.fixed:
+                continue
+            tol = rtol * (hi[k] - lo[k])
+            if self.params[n] - lo[k] <= tol or hi[k] - self.params[n] <= tol:
+                out.append(n)
+        return out
+
+    def to_dict(self) -> dict:
+        from . import __version__
+
+        names = self.names
+        return {
+            "params": self.params,
+            "of": self.of,
+            "runs": [
+                {"of": float(o), "params": dict(zip(names, map(float, p))), "fes": int(n), "iterations": int(it)}
+                | ({} if self.dups is None else {"dups": int(self.dups[r])})
+                for r, (o, p, n, it) in enumerate(zip(self.run_of, self.run_params, self.fes, self.iterations))
+            ],
+            "stats": self.stats,
+            "duplicates": self.duplicates,
+            "mean_params": self.mean_params,
+            "polish": self.polish,
+            "settings": self.settings,
+            "timing": self.timing,
+            "model": model_spec(self.model),
+            "names": list(names),
+            "units": {n: self.model.units.get(n, "") for n in names},
+            "fixed": self.fixed,
+            "free": [n for n in names if n not in self.fixed],
+            "at_bound": self.at_bound(),
+            "history_best": [float(np.nanmin(h)) if np.any(np.isfinite(h)) else None for h in self.history],
+            "dcjax_version": __version__,
+        }
+
+    def to_json(self, path: str | Path | None = None) -> str:
+        text = json.dumps(self.to_dict(), indent=2)
+        if path is not None:
+            Path(path).write_text(text + "\n")
+        return text
+
+    def simulate(self, recording: Recording | None = None) -> np.ndarray:
+        """(N, S) states of the best parameters on `recording` (default: the fitted one)."""
+        from .integrate import simulate
+
+        prob = self.problems([recording or self.recording])[0]
+        return np.asarray(simulate(np.array([self.params[n] for n in self.names]), prob))
+
+    def plot(self, path: str | Path | None = None, true_params: dict | None = None, **kw):
+        """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
+        convergence; see `dcjax.plotting.plot_result`."""
+        from .plotting import plot_result
+
+        return plot_result(self, path=path, **kw)
+
+    def report(self) -> str:
+        from .report import fit_report
+
+        return fit_report(self)
+
+    def __str__(self) -> str:
+        return self.report()
+
+
+def load_result(path: str | Path, recordings: list[Recording] | None = None, model: Model | str | None = None) -> IdentificationResult:
+    """Restore a saved result (`result.json`) without refitting: parameters, runs, settings,
+    model and (where their files are still there, or given as `recordings`) the recordings."""
+    from .loading import load_recording
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no such result file: {path}")
+    try:
+        d = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not a result file (invalid JSON: {e})") from None
+    if not isinstance(d, dict) or "params" not in d or "runs" not in d or "settings" not in d:
+        raise ValueError(f"{path}: not a dcjax result file (needs params, runs and settings)")
+    m = get_model(model if model is not None else d.get("model"))
+    names = m.names
+    m.check_names(d["params"])
+    runs = d["runs"]
+    if recordings is None:
+        recordings = []
+        for src in d["settings"].get("data", []) or []:
+            if src.get("path") and Path(src["path"]).is_file():
+                recordings.append(load_recording(src["path"], **(src.get("load") or {})))
+            elif src.get("embedded"):
+                from . import datasets
+
+                recordings.append(datasets.load(src["embedded"]))
+    hist_len = max((r.get("iterations", 0) for r in runs), default=0)
+    return IdentificationResult(
+        params={n: float(d["params"][n]) for n in names},
+        of=float(d["of"]),
+        run_of=np.array([r["of"] for r in runs], float),
+        run_params=np.array([[r["params"][n] for n in names] for r in runs], float),
+        fes=np.array([r.get("fes", 0) for r in runs]),
+        iterations=np.array([r.get("iterations", 0) for r in runs]),
+        history=np.full((len(runs), max(1, hist_len)), np.nan),
+        settings=d["settings"],
+        timing=d.get("timing", {}),
+        polish=d.get("polish"),
+        dups=np.array([r["dups"] for r in runs]) if runs and "dups" in runs[0] else None,
+        recordings=list(recordings),
+        model=m,
+        fixed={k: float(v) for k, v in (d.get("fixed") or {}).items()},
+    )

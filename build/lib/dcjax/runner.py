@@ -1,0 +1,88 @@
+"""Running many independent searches in one compiled call: per-run keys, sharding over the
+devices JAX sees, and a small cache of dcjax's own compiled executables (shared by `identify`
+and the fleet).
+
+Run r's key is `fold_in(PRNGKey(seed), r)` (a fleet folds the motor index in first), so a run
+does not depend on how many others are made or on the device count. The leading axis is padded
+to a multiple of the device count and sharded (`NamedSharding`); padding is dropped afterwards."""
+
+import gc
+from collections import OrderedDict
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+
+def fold_keys(seed: int, *shape: int) -> jax.Array:
+    """Keys of shape `shape`: key[a, b, ...] = fold_in(...fold_in(PRNGKey(seed), a)..., b)."""
+
+    def make(prefix, dims):
+        if not dims:
+            return prefix
+        return jax.vmap(lambda r: make(jax.random.fold_in(prefix, r), dims[1:]))(jnp.arange(dims[0]))
+
+    return make(jax.random.PRNGKey(seed), list(shape))
+
+
+def padded_size(n: int, devices) -> int:
+    return -(-n // len(devices)) * len(devices)
+
+
+def mesh_of(devices, axis: str) -> Mesh | None:
+    return Mesh(np.array(devices), (axis,)) if len(devices) > 1 else None
+
+
+def shard(host: np.ndarray | jax.Array, mesh: Mesh | None, axis: str):
+    """Put `host` on the mesh, split along its leading axis (works across processes too: every
+    process passes the same host data to `jax.make_array_from_callback`)."""
+    if mesh is None:
+        return jnp.asarray(host)
+    host = np.asarray(host)
+    sharding = NamedSharding(mesh, PartitionSpec(axis))
+    return jax.make_array_from_callback(host.shape, sharding, lambda idx: host[idx])
+
+
+class ExecutableCache:
+    """The last `size` compiled executables, by a key the caller builds (settings and argument
+    shapes), so cells of a sweep reuse them. Bounded on purpose: every XLA CPU executable holds
+    memory mappings, and a process that kept ~180 hit the kernel's limit (vm.max_map_count).
+    Only dcjax's own executables are dropped: the user's compiled functions are untouched."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self._items: OrderedDict = OrderedDict()
+
+    def get(self, key, build: Callable[[], Callable], args) -> tuple[Callable, bool]:
+        """(compiled executable, reused?) for `key`; on a miss `build()` returns a jitted function
+        that is lowered and compiled for `args`, and its tracing caches are released."""
+        hit = self._items.get(key)
+        reused = hit is not None
+        if not reused:
+            fn = build()
+            hit = fn.lower(*args).compile()
+            clear = getattr(fn, "clear_cache", None)
+            if clear is not None:
+                clear()
+            del fn
+            self._items[key] = hit
+            while len(self._items) > self.size:
+                self._items.popitem(last=False)
+                # An executable and JAX's weakly keyed caches of its tracing and lowering form
+                # reference cycles: collect them now, or their memory mappings linger.
+                gc.collect()
+        self._items.move_to_end(key)
+        return hit, reused
+
+    def clear(self) -> None:
+        self._items.clear()
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+
+def leaf_signature(args) -> tuple:
+    """Tree structure and (shape, dtype) of every array leaf: part of an executable's key."""
+    return (jax.tree.structure(args), tuple((getattr(x, "shape", None), getattr(x, "dtype", type(x))) for x in jax.tree.leaves(args)))

@@ -1,0 +1,95 @@
+"""The search space: which parameters are searched (free) and which are known (fixed), and the
+affine map between the unit cube of the free ones and a full physical parameter vector.
+
+Strategies see only the free parameters: a model with P parameters and F fixed ones is searched
+in [0, 1]^(P - F). A parameter whose bounds coincide is fixed at that value."""
+
+from collections.abc import Mapping
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .bounds import Bounds
+from .models import Model
+
+
+class Space(eqx.Module):
+    """x[free] = lower + z (upper - lower); x[fixed] = the fixed values."""
+
+    bounds: Bounds  # full bounds (P,), fixed parameters at their value
+    values: Float[Array, " P"]  # the fixed values (free entries: 0)
+    free: tuple[int, ...] = eqx.field(static=True)
+    names: tuple[str, ...] = eqx.field(static=True)
+
+    @property
+    def dim(self) -> int:
+        """Dimension of the search (free parameters)."""
+        return len(self.free)
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        v = np.asarray(self.values)
+        return {n: float(v[k]) for k, n in enumerate(self.names) if k not in self.free}
+
+    @property
+    def free_names(self) -> tuple[str, ...]:
+        return tuple(self.names[k] for k in self.free)
+
+    @property
+    def lower(self) -> Float[Array, " D"]:
+        return self.bounds.lower[jnp.asarray(self.free, dtype=int)]
+
+    @property
+    def upper(self) -> Float[Array, " D"]:
+        return self.bounds.upper[jnp.asarray(self.free, dtype=int)]
+
+    def to_physical(self, z: Float[Array, "*batch D"]) -> Float[Array, "*batch P"]:
+        """The full parameter vector of unit-cube point(s) `z` of the free parameters."""
+        if len(self.free) == len(self.names):
+            return self.bounds.to_physical(z)
+        xf = self.lower + z * (self.upper - self.lower)
+        cols, j = [], 0
+        for k in range(len(self.names)):
+            if k in self.free:
+                cols.append(xf[..., j])
+                j += 1
+            else:
+                cols.append(jnp.broadcast_to(self.values[k], z.shape[:-1]))
+        return jnp.stack(cols, axis=-1)
+
+    def to_unit(self, x: Float[Array, "*batch P"]) -> Float[Array, "*batch D"]:
+        """The free parameters of `x` in the unit cube."""
+        x = jnp.asarray(x)
+        lo, hi = self.lower, self.upper
+        width = jnp.where(hi > lo, hi - lo, 1.0)
+        return (x[..., jnp.asarray(self.free, dtype=int)] - lo) / width
+
+    def free_of(self, v) -> np.ndarray:
+        """The free entries of a full (P,) vector."""
+        return np.asarray(v)[..., list(self.free)]
+
+
+def make_space(model: Model, bounds: Bounds, fixed: Mapping[str, float] | None = None) -> Space:
+    """Free/fixed split of `model`'s parameters: `fixed` name -> value (need not lie inside the
+    bounds: a known value overrides them), plus every parameter whose bounds coincide."""
+    fixed = dict(fixed or {})
+    model.check_names(fixed, "fixed parameter")
+    lo, hi = np.array(bounds.lower), np.array(bounds.upper)
+    values = np.zeros(model.n_params)
+    for n, v in fixed.items():
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise ValueError(f"fixed value of {n} must be a number, got {v!r}") from None
+        if not np.isfinite(v):
+            raise ValueError(f"fixed value of {n} must be finite, got {v!r}")
+        k = model.names.index(n)
+        lo[k] = hi[k] = values[k] = v
+    for k in np.flatnonzero(lo == hi):
+        values[k] = lo[k]
+    free = tuple(int(k) for k in np.flatnonzero(lo < hi))
+    if not free:
+        raise ValueError(f"every parameter of model {model.name} is fixed; nothing to identify")
+    return Space(Bounds(lo, hi, model.names), jnp.asarray(values), free, tuple(model.names))

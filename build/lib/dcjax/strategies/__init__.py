@@ -1,0 +1,73 @@
+"""Search strategies (paper Section 2.2) behind one interface: `init`/`step` over a `State`,
+run whole by `run` as a `lax.while_loop`, `vmap`-able over independent runs."""
+
+from .abc import ABC
+from .base import RunOutput, State, Strategy, run
+from .de import DEBest1Bin, DERand1Exp
+from .ga import GA
+from .tlbo import TLBO
+
+METHODS = {
+    "ga": GA,
+    "de-rand-1-exp": DERand1Exp,
+    "de-best-1-bin": DEBest1Bin,
+    "tlbo": TLBO,
+    "abc": ABC,
+}
+
+
+def evosax_names() -> list[str]:
+    """The evosax algorithms (empty where the `evosax` extra is not installed)."""
+    try:
+        from .evosax_adapter import evosax_names as names
+    except ImportError:
+        return []
+    return names()
+
+
+def make_strategy(method: str | Strategy, pop_size: int = 70, **options) -> Strategy:
+    """A strategy by name: one of `METHODS` (the paper's five) or an evosax algorithm name
+    (`"CMA_ES"`, `"PSO"`, `"DifferentialEvolution"`, ...; prefix `evosax:` optional; needs the
+    `evosax` extra, imported only here)."""
+    if isinstance(method, Strategy):
+        return method
+    if not isinstance(method, str):
+        raise ValueError(f"method must be a name or a Strategy, got {method!r}")
+    key = method.lower()
+    if key in METHODS:
+        return METHODS[key](pop_size=pop_size, **options)
+    name = method.removeprefix("evosax:")
+    try:
+        from .evosax_adapter import Evosax
+    except ImportError:
+        raise ValueError(
+            f"unknown method {method!r}; choose one of {list(METHODS)}, or install the evosax extra "
+            "(pip install 'dcjax[evosax]') for evosax algorithms"
+        ) from None
+    if name in evosax_names():
+        return Evosax(pop_size=pop_size, name=name, params=options)
+    raise ValueError(f"unknown method {method!r}; choose one of {list(METHODS)} or an evosax algorithm {evosax_names()}")
+
+
+def __getattr__(name):
+    if name == "Evosax":  # imported on use: evosax starts JAX's backend at import
+        from .evosax_adapter import Evosax
+
+        return Evosax
+    raise AttributeError(name)
+
+
+__all__ = [
+    "ABC",
+    "GA",
+    "TLBO",
+    "DERand1Exp",
+    "DEBest1Bin",
+    "METHODS",
+    "RunOutput",
+    "State",
+    "Strategy",
+    "evosax_names",
+    "make_strategy",
+    "run",
+]

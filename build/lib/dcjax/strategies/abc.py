@@ -1,0 +1,83 @@
+"""Artificial bee colony (Karaboga; paper refs. 36–45) with limit = 100 (Section 2.2).
+
+A colony of NP bees tends SN = NP / 2 food sources.
+- Employed bees: for each source i, a random partner k != i and gene j:
+  v_ij = x_ij + phi (x_ij - x_kj), phi ~ U(-1, 1); greedy; the trial counter of i grows on failure.
+- Onlooker bees: SN bees choose sources by roulette on fit_i = 1 / (1 + f_i) and move as above.
+  They fly together (vectorized): where several choose one source, the best of their candidates
+  is compared with it.
+- Scout: the source with the most failures, if above `limit`, is replaced by a random point
+  (one FE). FEs are counted as spent; evaluations past the budget are not made, so a run stops
+  exactly at the budget.
+"""
+
+import jax
+import jax.numpy as jnp
+
+from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, initial_state
+
+
+class ABC(Strategy):
+    limit: int = 100
+    bounds_rule: str = "clip"
+    init_rule: str = "uniform"
+
+    @property
+    def n_sources(self) -> int:
+        return self.pop_size // 2
+
+    def max_iterations(self, budget: int) -> int:
+        return max(0, -(-(budget - self.n_sources) // (2 * self.n_sources)))
+
+    def init(self, key, fn, budget, dim, x0=None) -> State:
+        return initial_state(key, fn, budget, self.n_sources, dim, self.init_rule, aux=jnp.zeros(self.n_sources, jnp.int32), x0=x0)
+
+    def _move(self, key, pop, who):
+        """Candidate v for the sources `who` (one per bee)."""
+        sn, d = pop.shape
+        kk, kj, kp, kb = jax.random.split(key, 4)
+        partner = distinct_indices(kk, sn, who, 1)[:, 0]
+        j = jax.random.randint(kj, (who.shape[0], 1), 0, d)
+        phi = jax.random.uniform(kp, (who.shape[0], 1), minval=-1.0, maxval=1.0)
+        x = pop[who]
+        v = jnp.where(jnp.arange(d)[None, :] == j, x + phi * (x - pop[partner]), x)
+        return apply_bounds(kb, v, self.bounds_rule, x)
+
+    def step(self, key, state, fn, budget) -> State:
+        sn = self.n_sources
+        ke, ko, kc, ks = jax.random.split(key, 4)
+        pop, fit, trials = state.pop, state.fit, state.aux
+        # Employed bees.
+        idx = jnp.arange(sn)
+        v = self._move(ke, pop, idx)
+        fv, v, state = evaluate(fn, v, state, budget)
+        win = (fv <= fit) & jnp.isfinite(fv)
+        pop = jnp.where(win[:, None], v, pop)
+        fit = jnp.where(win, fv, fit)
+        trials = jnp.where(win, 0, trials + 1)
+        # Onlooker bees.
+        quality = jnp.where(fit >= 0, 1.0 / (1.0 + fit), 1.0 + jnp.abs(fit))
+        total = quality.sum()
+        prob = jnp.where(total > 0, quality / jnp.where(total > 0, total, 1.0), 1.0 / sn)
+        chosen = jax.random.choice(kc, sn, (sn,), p=prob)
+        v = self._move(ko, pop, chosen)
+        fv, v, state = evaluate(fn, v, state, budget)
+        per_source = jnp.where(chosen[None, :] == idx[:, None], fv[None, :], jnp.inf)  # (source, bee)
+        best_bee = jnp.argmin(per_source, axis=1)
+        cand_f = per_source[idx, best_bee]
+        targeted = jnp.any(chosen[None, :] == idx[:, None], axis=1)
+        win = targeted & (cand_f <= fit) & jnp.isfinite(cand_f)
+        pop = jnp.where(win[:, None], v[best_bee], pop)
+        fit = jnp.where(win, cand_f, fit)
+        trials = jnp.where(win, 0, trials + targeted.astype(trials.dtype))
+        # Scout bee.
+        worst = jnp.argmax(trials)
+        scout = trials[worst] > self.limit
+        x_new = jax.random.uniform(ks, (1, pop.shape[1]))
+        f_new, x_new, scouted = evaluate(fn, x_new, state, budget)
+        do = scout & (state.fes < budget)
+        pop = pop.at[worst].set(jnp.where(do, x_new[0], pop[worst]))
+        fit = fit.at[worst].set(jnp.where(do, f_new[0], fit[worst]))
+        trials = trials.at[worst].set(jnp.where(do, 0, trials[worst]))
+        state = jax.tree.map(lambda a, b: jnp.where(do, a, b), scouted, state)
+        return state.replace(pop=pop, fit=fit, aux=trials)

@@ -1,0 +1,237 @@
+"""What every search strategy shares: its state, budget-aware evaluation, bound rules and the
+compiled run loop. Strategies search the unit cube [0, 1]^D; `Bounds.to_physical` maps it onto
+the paper's limits (Tables 4 and 8)."""
+
+import dataclasses
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
+
+from .compact import compacted
+from .memory import Memory
+
+FitnessFn = Callable[[Float[Array, "P D"]], Float[Array, " P"]]
+
+
+class State(eqx.Module):
+    """Population `pop` (P, D) in the unit cube, its objective values `fit`, the best point
+    seen, the fitness evaluations really made (`fes`), the candidates answered from memory
+    (`dups`), a strategy-specific `aux` pytree and the optional `memory` (`Memory`)."""
+
+    pop: Float[Array, "P D"]
+    fit: Float[Array, " P"]
+    best_x: Float[Array, " D"]
+    best_f: Float[Array, ""]
+    fes: Int[Array, ""]
+    aux: PyTree = None
+    dups: Int[Array, ""] | None = None
+    memory: Memory | None = None
+
+    def replace(self, **changes) -> "State":
+        return dataclasses.replace(self, **changes)
+
+
+def finite_or_inf(f: Array) -> Array:
+    """Non-finite objective values become +inf, so they never win a comparison or an argmin."""
+    return jnp.where(jnp.isfinite(f), f, jnp.inf)
+
+
+def evaluate(fn: FitnessFn, z: Float[Array, "P D"], state: State, budget: int) -> tuple[Float[Array, " P"], Float[Array, "P D"], State]:
+    """Evaluate candidates `z`, spending at most the remaining budget: candidates past it get
+    +inf (never accepted) and are not counted. With `state.memory`, a candidate within precision
+    of a record takes the record's x and OF and is not simulated (`compacted`); only real
+    evaluations count as FEs, and LTMA stores every evaluated non-duplicate.
+
+    Returns (fitness, candidates (duplicates replaced by their records), state with `fes`,
+    `dups` and `memory` advanced)."""
+    mem = state.memory
+    if mem is None:
+        allowed = state.fes + jnp.arange(z.shape[0]) < budget
+        f = jnp.where(allowed, finite_or_inf(fn(z)), jnp.inf)
+        return f, z, state.replace(fes=state.fes + jnp.sum(allowed))
+    found, x_rec, f_rec, mem = mem.lookup(z)
+    need = ~found
+    allowed = need & (state.fes + jnp.cumsum(need) <= budget)
+    f_new = finite_or_inf(compacted(fn)(z, allowed))
+    f = jnp.where(found, f_rec, jnp.where(allowed, f_new, jnp.inf))
+    z = jnp.where(found[:, None], x_rec, z)
+    mem = mem.add(z, f_new, allowed)
+    dups = jnp.asarray(0) if state.dups is None else state.dups
+    return f, z, state.replace(fes=state.fes + jnp.sum(allowed), dups=dups + jnp.sum(found), memory=mem)
+
+
+def initial_state(
+    key: PRNGKeyArray, fn: FitnessFn, budget: int, n: int, dim: int, init: str, aux: PyTree = None, x0: Array | None = None
+) -> State:
+    """A random population of `n` (see `uniform_population`), evaluated within the budget.
+    `x0` (K, D), unit cube: start values put in place of the first K members' genes (NaN: keep
+    the random gene)."""
+    pop = seed_population(uniform_population(key, n, dim, init), x0)
+    allowed = jnp.arange(n) < budget
+    fit = jnp.where(allowed, finite_or_inf(fn(pop)), jnp.inf)
+    return State(pop, fit, pop[0], jnp.asarray(jnp.inf), jnp.sum(allowed), aux, jnp.asarray(0))
+
+
+def seed_population(pop: Float[Array, "n d"], x0: Array | None) -> Float[Array, "n d"]:
+    """Put start values `x0` (K, D; NaN = not given) into the first K members."""
+    if x0 is None:
+        return pop
+    x0 = jnp.asarray(x0, pop.dtype)[: pop.shape[0]]
+    k = x0.shape[0]
+    return pop.at[:k].set(jnp.where(jnp.isnan(x0), pop[:k], jnp.clip(x0, 0.0, 1.0)))
+
+
+def with_best(state: State) -> State:
+    k = jnp.argmin(state.fit)
+    better = state.fit[k] < state.best_f
+    return eqx.tree_at(
+        lambda s: (s.best_x, s.best_f),
+        state,
+        (jnp.where(better, state.pop[k], state.best_x), jnp.where(better, state.fit[k], state.best_f)),
+    )
+
+
+def uniform_population(key: PRNGKeyArray, n: int, d: int, init: str = "uniform") -> Float[Array, "n d"]:
+    """Initial population: `"uniform"` (i.i.d. in the cube) or `"lhs"` (Latin hypercube)."""
+    if init == "uniform":
+        return jax.random.uniform(key, (n, d))
+    if init == "lhs":
+        k1, k2 = jax.random.split(key)
+        strata = jax.vmap(lambda k: jax.random.permutation(k, n))(jax.random.split(k1, d)).T
+        return (strata + jax.random.uniform(k2, (n, d))) / n
+    raise ValueError(f"init must be 'uniform' or 'lhs', got {init!r}")
+
+
+def apply_bounds(key: PRNGKeyArray, z: Array, rule: str, parent: Array | None = None) -> Array:
+    """Bring trial genes back into [0, 1]:
+
+    - `"redraw"`: an out-of-bound gene is redrawn uniformly in [0, 1] (scipy's and pygmo's DE);
+    - `"clip"`: clipped to the nearest bound;
+    - `"midpoint"`: halfway between the parent's gene and the violated bound."""
+    out = (z < 0.0) | (z > 1.0)
+    if rule == "redraw":
+        return jnp.where(out, jax.random.uniform(key, z.shape), z)
+    if rule == "clip":
+        return jnp.clip(z, 0.0, 1.0)
+    if rule == "midpoint":
+        assert parent is not None
+        return jnp.where(z < 0.0, 0.5 * parent, jnp.where(z > 1.0, 0.5 * (parent + 1.0), z))
+    raise ValueError(f"bounds rule must be 'redraw', 'clip' or 'midpoint', got {rule!r}")
+
+
+BOUND_RULES = ("redraw", "clip", "midpoint")
+
+
+def distinct_indices(key: PRNGKeyArray, n: int, exclude: Int[Array, " P"], count: int) -> Int[Array, "P count"]:
+    """For each row p, `count` distinct indices in [0, n) all different from `exclude[p]`,
+    drawn directly (uniform without replacement, no argsort of a random matrix)."""
+    taken = exclude[:, None]
+    keys = jax.random.split(key, count)
+    picks = []
+    for m in range(count):
+        k = jax.random.randint(keys[m], exclude.shape, 0, n - 1 - m)
+        for e in jnp.moveaxis(jnp.sort(taken, axis=1), 1, 0):  # shift past taken ones, ascending
+            k = k + (k >= e)
+        picks.append(k)
+        taken = jnp.concatenate([taken, k[:, None]], axis=1)
+    return jnp.stack(picks, axis=1)
+
+
+def greedy(pop, fit, trial, trial_fit) -> tuple[Array, Array, Bool[Array, " P"]]:
+    """One-to-one selection: a trial replaces its parent when it is no worse and finite."""
+    win = (trial_fit <= fit) & jnp.isfinite(trial_fit)
+    return jnp.where(win[:, None], trial, pop), jnp.where(win, trial_fit, fit), win
+
+
+class Strategy(eqx.Module):
+    """Interface: `init(key, fn, budget, dim, x0) -> State`, `step(key, state, fn, budget) -> State`.
+    `dim` is the number of searched (free) parameters; `x0` optional start values (K, dim) in
+    the unit cube that replace the first K members of the initial population.
+
+    `cost` is the most evaluations one step can spend when it must run whole (GA); strategies
+    that mask evaluations past the budget set it to 1 and stop exactly at the budget."""
+
+    pop_size: int = eqx.field(static=True, default=70)
+
+    @property
+    def cost(self) -> int:
+        return 1
+
+    def max_iterations(self, budget: int) -> int:
+        raise NotImplementedError
+
+    def init(self, key, fn: FitnessFn, budget: int, dim: int, x0: Array | None = None) -> State:
+        raise NotImplementedError
+
+    def step(self, key, state: State, fn: FitnessFn, budget: int) -> State:
+        raise NotImplementedError
+
+
+class RunOutput(eqx.Module):
+    """One run: best point (unit cube), its OF, FEs really spent, iterations done, the best OF
+    after each iteration (`history[k]`; NaN past the last iteration), candidates answered from
+    memory (`dups`) and memory chunks searched (`chunks`; 0 without memory)."""
+
+    best_x: Float[Array, " D"]
+    best_f: Float[Array, ""]
+    fes: Int[Array, ""]
+    iterations: Int[Array, ""]
+    history: Float[Array, " T"]
+    dups: Int[Array, ""]
+    chunks: Int[Array, ""]
+
+
+MEMORY_ITERATION_FACTOR = 20
+
+
+def run(
+    strategy: Strategy,
+    key: PRNGKeyArray,
+    fn: FitnessFn,
+    budget: int,
+    dim: int,
+    memory: str | None = None,
+    precision: Float[Array, " D"] | None = None,
+    generations: int | None = None,
+    capacity: int | None = None,
+    x0: Float[Array, "K D"] | None = None,
+) -> RunOutput:
+    """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
+    `generations`, at most that many iterations.
+
+    `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`; see `Memory`) with `precision` in unit-cube
+    units. Duplicates cost no FEs, so a budget lasts longer: without `generations` a run with
+    memory stops at the budget or at `MEMORY_ITERATION_FACTOR` x the memory-free iteration count.
+    The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
+    initial population (see `Strategy.init`)."""
+    if generations is not None:
+        t_max = int(generations)
+    else:
+        t_max = max(1, strategy.max_iterations(budget)) * (1 if memory is None else MEMORY_ITERATION_FACTOR)
+    k_init, k_run = jax.random.split(key)
+    state = with_best(strategy.init(k_init, fn, budget, dim, x0))
+    if memory is not None:
+        if precision is None:
+            raise ValueError("memory needs a precision vector (unit-cube units)")
+        evaluated = jnp.arange(state.pop.shape[0]) < state.fes
+        cap = capacity if capacity is not None else budget + strategy.pop_size
+        state = state.replace(memory=Memory.create(memory, precision, state.pop, state.fit, evaluated, cap))
+    history = jnp.full((max(1, t_max),), jnp.nan)
+
+    def cond(carry):
+        state, it, _ = carry
+        return (state.fes + strategy.cost <= budget) & (it < t_max)
+
+    def body(carry):
+        state, it, history = carry
+        state = with_best(strategy.step(jax.random.fold_in(k_run, it), state, fn, budget))
+        if state.memory is not None:
+            state = state.replace(memory=state.memory.refresh(state.pop, state.fit))
+        return state, it + 1, history.at[it].set(state.best_f)
+
+    state, it, history = jax.lax.while_loop(cond, body, (state, jnp.asarray(0), history))
+    chunks = jnp.asarray(0) if state.memory is None else state.memory.chunks
+    return RunOutput(state.best_x, state.best_f, state.fes, it, history, jnp.asarray(0) if state.dups is None else state.dups, chunks)

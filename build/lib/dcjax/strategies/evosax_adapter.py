@@ -1,0 +1,78 @@
+"""Run any evosax algorithm (`CMA_ES`, `PSO`, `DifferentialEvolution`, ...) on the same problem
+through the same `run`/`identify` machinery.
+
+The algorithm searches the unit cube; candidates are clipped into it before evaluation and the
+clipped point is what is told back, so every returned parameter respects the bounds. One
+generation costs `pop_size` FEs (the initial population of a population-based algorithm too)."""
+
+import equinox as eqx
+import evosax.algorithms as ea
+import jax
+import jax.numpy as jnp
+
+from .base import State, Strategy, evaluate, initial_state
+
+
+def evosax_names() -> list[str]:
+    return sorted(ea.algorithms)
+
+
+class Evosax(Strategy):
+    """`Evosax("CMA_ES")`, `Evosax("PSO")`, `Evosax("DifferentialEvolution", params={...})`.
+    `params` overrides fields of the algorithm's default params; `std_init` (distribution-based
+    only, unit-cube scale) defaults to 0.3."""
+
+    name: str = eqx.field(static=True, default="CMA_ES")
+    params: dict = eqx.field(static=True, default_factory=dict)
+
+    def __check_init__(self):
+        if self.name not in ea.algorithms:
+            raise ValueError(f"unknown evosax algorithm {self.name!r}; choose from {evosax_names()}")
+
+    def _algo(self, dim: int):
+        return ea.algorithms[self.name](population_size=self.pop_size, solution=jnp.zeros(dim))
+
+    def _params(self, algo):
+        p = algo.default_params
+        fields = dict(self.params)
+        if self_is_pop(algo):
+            fields.pop("std_init", None)
+        elif hasattr(p, "std_init"):
+            fields.setdefault("std_init", 0.3)
+        return p.replace(**fields) if fields else p
+
+    @property
+    def cost(self) -> int:
+        return self.pop_size
+
+    def max_iterations(self, budget: int) -> int:
+        return max(0, budget // self.pop_size)
+
+    def init(self, key, fn, budget, dim, x0=None) -> State:
+        algo = self._algo(dim)
+        params = self._params(algo)
+        k1, k2 = jax.random.split(key)
+        if self_is_pop(algo):
+            state = initial_state(k1, fn, budget, self.pop_size, dim, "uniform", x0=x0)
+            es = algo.init(k2, state.pop, state.fit, params)
+            return state.replace(aux=es)
+        mean = jnp.full(dim, 0.5) if x0 is None else jnp.nanmean(jnp.where(jnp.isnan(x0), 0.5, x0), axis=0)
+        es = algo.init(k2, mean, params)
+        pop = jnp.full((self.pop_size, dim), 0.5)
+        return State(pop, jnp.full(self.pop_size, jnp.inf), pop[0], jnp.asarray(jnp.inf), jnp.asarray(0), es, jnp.asarray(0))
+
+    def step(self, key, state, fn, budget) -> State:
+        algo = self._algo(state.pop.shape[1])
+        params = self._params(algo)
+        ka, kt = jax.random.split(key)
+        x, es = algo.ask(ka, state.aux, params)
+        x = jnp.clip(x, 0.0, 1.0)
+        fit, x, state = evaluate(fn, x, state, budget)
+        es, _ = algo.tell(kt, x, fit, es, params)
+        return state.replace(pop=x, fit=fit, aux=es)
+
+
+def self_is_pop(algo) -> bool:
+    from evosax.algorithms.population_based.base import PopulationBasedAlgorithm
+
+    return isinstance(algo, PopulationBasedAlgorithm)

@@ -1,0 +1,159 @@
+"""Memory assistance (paper Section 4.4, Figs. 23–24, Table 29): a candidate within `precision`
+of a stored record (every parameter closer than its precision) is a duplicate; it takes the
+record's parameters and OF and is not simulated.
+
+- `"stma"`: the records are the previous iteration's population (refreshed after every step).
+- `"ltma-s1"` / `"ltma-s2"`: the records are the whole search history; every evaluated
+  non-duplicate is appended. The history is searched in chunks, oldest first (S1) or newest
+  first (S2), and the search stops as soon as every candidate is resolved.
+
+A duplicate takes the record's *parameters* as well as its OF, so every (x, OF) pair a run holds
+was really evaluated. When a candidate matches several records, S1 returns the oldest and S2 the
+newest (the order of Fig. 24), so whole-run paths of S1 and S2 can differ, as the paper's Tables
+30–33 (different duplication counts for S1 and S2) show.
+
+Shapes are static: the LTMA history holds `capacity` records, by default the FE budget plus one
+population. Only evaluated non-duplicates are stored and a run never evaluates more than its
+budget, so the history cannot overflow; were it full, further records would be dropped (not
+stored) and the search would go on over the records kept.
+
+Candidates of one batch are compared with the memory as it was before the batch (a vectorized
+evaluation must); the paper's one-by-one loop would also catch a near-copy of a candidate of the
+same batch that was just added. For STMA the two are identical (the memory changes only between
+iterations)."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
+
+from ..bounds import Bounds
+from ..models import DC, Model
+from ..models.dc import TABLE29_PRECISION
+from ..space import Space, make_space
+
+MEMORY_KINDS = ("stma", "ltma-s1", "ltma-s2")
+
+# Table 29 (the paper's model), physical units, in `DC.names` order.
+TABLE29 = np.array([TABLE29_PRECISION[n] for n in DC.names])
+
+
+def load_torque_precision(torque: float, speed: float, ra: float, la: float, cm: float, j: float) -> np.ndarray:
+    """Table 29's rule for other drives of the paper's model: the load coefficients are resolved
+    to a torque of `torque` at `speed` (Tla: torque, Tlb: torque / speed, Tlc: torque / speed^2);
+    Ra, La, cm and J get the resolution the user gives (Table 29: 1e-3, 1e-3, 1e-3, 1e-4 with
+    1 mNm at 209 1/s)."""
+    if not (torque > 0 and speed > 0 and min(ra, la, cm, j) > 0):
+        raise ValueError("precisions, torque and speed must be positive")
+    return np.array([ra, la, cm, j, torque, torque / speed, torque / speed**2])
+
+
+def physical_precision(precision: ArrayLike | dict | None, model: Model) -> np.ndarray:
+    """The precision vector (model order): None -> the model's own (Table 29 for `DC`), a
+    name -> value mapping, or a full vector."""
+    if precision is None:
+        return model.precision_array()
+    if isinstance(precision, dict):
+        model.check_names(precision)
+        base = model.precision_array() if model.precision is not None else np.zeros(model.n_params)
+        missing = [n for n in model.names if n not in precision and model.precision is None]
+        if missing:
+            raise ValueError(f"precision needs a value for {missing} (model {model.name} has no default)")
+        return np.array([float(precision.get(n, base[k])) for k, n in enumerate(model.names)])
+    p = np.asarray(precision, dtype=np.float64)
+    if p.shape != (model.n_params,):
+        raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
+    return p
+
+
+def unit_precision(precision: ArrayLike | None, space: "Space | Bounds", model: Model | None = None) -> np.ndarray:
+    """Physical precisions (default: the model's, Table 29 for the paper's model) of the free
+    parameters in the unit cube the strategies search (`space`: a `Space`, or `Bounds`)."""
+    model = model if model is not None else DC()
+    if isinstance(space, Bounds):
+        space = make_space(model, space)
+    p = physical_precision(precision, model)
+    if not np.all(p >= 0) or np.any(np.isnan(p)):
+        raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
+    p = space.free_of(p)
+    width = np.asarray(space.upper - space.lower)
+    return p / width
+
+
+class Memory(eqx.Module):
+    """Records `x` (unit cube) and `f`, the first `n` filled; `precision` in unit-cube units."""
+
+    x: Float[Array, "C D"]
+    f: Float[Array, " C"]
+    n: Int[Array, ""]
+    precision: Float[Array, " D"]
+    chunks: Int[Array, ""]  # memory chunks compared so far (search work)
+    kind: str = eqx.field(static=True)
+    chunk: int = eqx.field(static=True)
+
+    @staticmethod
+    def create(kind: str, precision, pop, fit, evaluated, capacity: int, chunk: int = 1024) -> "Memory":
+        """STMA: the population itself; LTMA: an empty history of `capacity` with the evaluated
+        members of the initial population appended."""
+        if kind not in MEMORY_KINDS:
+            raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {kind!r}")
+        precision = jnp.asarray(precision, pop.dtype)
+        zero = jnp.asarray(0)
+        if kind == "stma":
+            return Memory(pop, fit, jnp.asarray(pop.shape[0]), precision, zero, kind, pop.shape[0])
+        capacity = max(int(capacity), pop.shape[0])
+        chunk = min(chunk, capacity)
+        empty = Memory(jnp.zeros((capacity, pop.shape[1]), pop.dtype), jnp.zeros(capacity, fit.dtype), zero, precision, zero, kind, chunk)
+        return empty.add(pop, fit, evaluated)
+
+    def lookup(self, z: Float[Array, "P D"]) -> tuple[Bool[Array, " P"], Float[Array, "P D"], Float[Array, " P"], "Memory"]:
+        """(found, record x, record OF, memory with its work counter advanced) for each candidate:
+        found where |z - x_r| < precision in every parameter for some filled record r; the first
+        record in search order (oldest first for STMA and S1, newest first for S2)."""
+        p, _ = z.shape
+        cap, ch = self.x.shape[0], self.chunk
+        newest_first = self.kind == "ltma-s2"
+        n_chunks = -(-self.n // ch)
+
+        def cond(carry):
+            k, found, _ = carry
+            return (k < n_chunks) & ~jnp.all(found)
+
+        def body(carry):
+            k, found, idx = carry
+            if newest_first:
+                end = self.n - k * ch
+                begin = end - ch
+            else:
+                begin = k * ch
+                end = jnp.minimum(begin + ch, self.n)
+            start = jnp.clip(begin, 0, cap - ch)
+            pos = start + jnp.arange(ch)
+            block = jax.lax.dynamic_slice_in_dim(self.x, start, ch)
+            close = jnp.all(jnp.abs(z[:, None, :] - block[None, :, :]) < self.precision, axis=-1)
+            match = close & ((pos >= begin) & (pos < end))[None, :] & ~found[:, None]
+            hit = jnp.any(match, axis=1)
+            j = ch - 1 - jnp.argmax(match[:, ::-1], axis=1) if newest_first else jnp.argmax(match, axis=1)
+            return k + 1, found | hit, jnp.where(hit, pos[j], idx)
+
+        init = (jnp.asarray(0), jnp.zeros(p, bool), jnp.zeros(p, self.n.dtype))
+        k, found, idx = jax.lax.while_loop(cond, body, init)
+        return found, self.x[idx], self.f[idx], eqx.tree_at(lambda m: m.chunks, self, self.chunks + k)
+
+    def add(self, z: Float[Array, "P D"], f: Float[Array, " P"], new: Bool[Array, " P"]) -> "Memory":
+        """LTMA: append the rows of `z`, `f` where `new`, in order (rows past capacity are dropped).
+        STMA: unchanged (see `refresh`)."""
+        if self.kind == "stma":
+            return self
+        pos = jnp.where(new, self.n + jnp.cumsum(new) - 1, self.x.shape[0])
+        x = self.x.at[pos].set(z, mode="drop")
+        fr = self.f.at[pos].set(f, mode="drop")
+        n = jnp.minimum(self.n + jnp.sum(new), self.x.shape[0])
+        return eqx.tree_at(lambda m: (m.x, m.f, m.n), self, (x, fr, n))
+
+    def refresh(self, pop: Float[Array, "P D"], fit: Float[Array, " P"]) -> "Memory":
+        """STMA after each iteration: the memory becomes the current population."""
+        if self.kind != "stma":
+            return self
+        return eqx.tree_at(lambda m: (m.x, m.f), self, (pop, fit))

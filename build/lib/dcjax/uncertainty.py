@@ -1,0 +1,248 @@
+"""Uncertainty and identifiability at a fitted optimum.
+
+Linearization (Gauss–Newton): with the residual vector r(x) of eq. 24/27 (sum r^2 = OF) and its
+Jacobian J = dr/dx by `jax.jacfwd` through the integrator,
+
+    s^2 = sum r^2 / (m - p),      Cov(x) = s^2 (J^T J)^+,      se_k = sqrt(Cov_kk),
+
+computed in bound-scaled coordinates (x = lower + (upper - lower) z) with an SVD pseudo-inverse,
+so that parameters of very different size and near-singular directions are handled. 95 %
+intervals are x_k +- t_{0.975, m-p} se_k. A profile likelihood re-fits all other parameters with
+one held fixed (Levenberg–Marquardt) over a grid."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from .bounds import Bounds
+from .polish import stacked_residuals
+from .problem import Problem
+from .space import Space, make_space
+
+WELL, WEAK, NOT, FIXED = "well determined", "weakly determined", "not identifiable from this recording", "fixed (known)"
+
+
+@dataclasses.dataclass
+class Uncertainty:
+    params: dict[str, float]
+    se: dict[str, float]
+    ci95: dict[str, tuple[float, float]]
+    correlation: np.ndarray  # (P, P); 0 for fixed parameters
+    verdict: dict[str, str]
+    reason: dict[str, str]
+    singular_values: np.ndarray  # of the bound-scaled Jacobian, descending
+    dof: int
+    s2: float
+    profile: tuple | None = None  # (values, OFs) of a profile likelihood, where computed
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.params)
+
+    def strong_correlations(self, threshold: float = 0.9) -> list[tuple[str, str, float]]:
+        """Pairs of parameters correlated above `threshold` in absolute value, strongest first."""
+        names, c = self.names, self.correlation
+        pairs = [
+            (names[a], names[b], float(c[a, b])) for a in range(len(names)) for b in range(a + 1, len(names)) if abs(c[a, b]) > threshold
+        ]
+        return sorted(pairs, key=lambda p: -abs(p[2]))
+
+    def table(self) -> str:
+        lines = [f"{'param':>6} {'value':>13} {'std. error':>11} {'rel.':>8} {'95 % interval':>29}  verdict"]
+        for n in self.params:
+            v, s = self.params[n], self.se[n]
+            rel = s / abs(v) if v else np.inf
+            lo, hi = self.ci95[n]
+            lines.append(f"{n:>6} {v:13.6g} {s:11.3g} {rel:8.1e} [{lo:13.6g}, {hi:13.6g}]  {self.verdict[n]} ({self.reason[n]})")
+        return "\n".join(lines)
+
+
+def residual_jacobian(
+    x: np.ndarray, problems: list[Problem], weights: list[float] | None = None, free=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Stacked residuals r (m,) and J = dr/dx (m, F) over one or several recordings, with respect
+    to the parameters `free` (indices; default all); each recording's residuals are scaled by
+    sqrt(its weight), so sum r^2 is the (joint) OF."""
+    weights = weights or [1.0 / len(problems)] * len(problems)
+    xj = jnp.asarray(x, dtype=jnp.float64)
+    free = jnp.arange(xj.shape[0]) if free is None else jnp.asarray(free, dtype=int)
+
+    def r_of(xf):
+        return stacked_residuals(xj.at[free].set(xf), problems, weights)
+
+    return np.asarray(r_of(xj[free])), np.asarray(jax.jacfwd(r_of)(xj[free]))
+
+
+def _t_quantile(dof: int) -> float:
+    try:
+        from scipy.stats import t
+
+        return float(t.ppf(0.975, dof))
+    except ImportError:  # normal approximation
+        return 1.959963984540054
+
+
+def uncertainty(
+    x,
+    problems: Problem | list[Problem],
+    bounds: Bounds | Space,
+    weights: list[float] | None = None,
+    weak_rel_se: float = 0.1,
+    not_rel_se: float = 1.0,
+    rcond: float = 1e-10,
+) -> Uncertainty:
+    """Standard errors, 95 % intervals, correlations and a verdict per parameter at `x`.
+
+    Verdicts: *not identifiable from this recording* when the parameter sits on a bound, loads on a
+    null direction of J (singular value below `rcond` x the largest), or its relative standard error
+    exceeds `not_rel_se`; *weakly determined* when the relative error exceeds `weak_rel_se` or it
+    is correlated above 0.99 with another parameter; else *well determined*. Parameters fixed in
+    `bounds` (a `Space`, or equal lower and upper bounds) are known: *fixed (known)*, error 0,
+    and the others' errors are computed with them held."""
+    problems = problems if isinstance(problems, list) else [problems]
+    model = problems[0].model
+    space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
+    names = model.names
+    x = np.asarray(x, dtype=np.float64)
+    fidx = np.array(space.free)
+    r, jac = residual_jacobian(x, problems, weights, fidx)
+    m, p = jac.shape
+    dof = max(m - p, 1)
+    s2 = float(r @ r) / dof
+    width = np.asarray(space.upper - space.lower)
+    xf = x[fidx]
+    jz = jac * width  # d r / d z
+    u, sv, vt = np.linalg.svd(jz, full_matrices=False)
+    keep = sv > rcond * sv[0]
+    inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)
+    cov_z = (vt.T * inv) @ vt * s2
+    cov = cov_z * np.outer(width, width)
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    d = np.where(se > 0, se, 1.0)
+    corr = cov / np.outer(d, d)
+    null_load = np.abs(vt[~keep]).max(axis=0) if np.any(~keep) else np.zeros(p)
+    tq = _t_quantile(dof)
+    lo_b, hi_b = np.asarray(space.lower), np.asarray(space.upper)
+    free_names = space.free_names
+    verdict, reason = {}, {}
+    for k, n in enumerate(free_names):
+        rel = se[k] / abs(xf[k]) if xf[k] != 0 else np.inf
+        at_bound = min(abs(xf[k] - lo_b[k]), abs(hi_b[k] - xf[k])) <= 1e-9 * width[k] + 1e-300
+        others = np.abs(np.delete(corr[k], k))
+        if at_bound:
+            verdict[n], reason[n] = NOT, "at a bound"
+        elif null_load[k] > 0.3:
+            verdict[n], reason[n] = NOT, "in a null direction of the Jacobian"
+        elif rel > not_rel_se:
+            verdict[n], reason[n] = NOT, f"relative std. error {rel:.1e}"
+        elif rel > weak_rel_se:
+            verdict[n], reason[n] = WEAK, f"relative std. error {rel:.1e}"
+        elif others.max() > 0.99:
+            j = int(np.argmax(np.abs(np.where(np.arange(p) == k, 0, corr[k]))))
+            verdict[n], reason[n] = WEAK, f"correlation {corr[k, j]:+.3f} with {free_names[j]}"
+        else:
+            verdict[n], reason[n] = WELL, f"relative std. error {rel:.1e}"
+    se_all = np.zeros(len(names))
+    se_all[fidx] = se
+    corr_all = np.zeros((len(names), len(names)))
+    corr_all[np.ix_(fidx, fidx)] = corr
+    for n in space.fixed:
+        verdict[n], reason[n] = FIXED, "given"
+    return Uncertainty(
+        params=dict(zip(names, map(float, x))),
+        se=dict(zip(names, map(float, se_all))),
+        ci95={n: (float(x[k] - tq * se_all[k]), float(x[k] + tq * se_all[k])) for k, n in enumerate(names)},
+        correlation=corr_all,
+        verdict={n: verdict[n] for n in names},
+        reason={n: reason[n] for n in names},
+        singular_values=sv,
+        dof=dof,
+        s2=s2,
+    )
+
+
+def profile(
+    x,
+    name: str,
+    values,
+    problems: Problem | list[Problem],
+    bounds: Bounds | Space,
+    weights: list[float] | None = None,
+    max_steps: int = 200,
+) -> np.ndarray:
+    """Profile likelihood of one parameter: for each value, the least OF over the other free
+    parameters (Levenberg–Marquardt from `x`, bounds kept by the sine reparametrization; fixed
+    parameters stay fixed). Returns OFs."""
+    problems = problems if isinstance(problems, list) else [problems]
+    model = problems[0].model
+    model.check_names([name])
+    space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
+    if name in space.fixed:
+        raise ValueError(f"{name} is fixed; a profile needs a free parameter")
+    weights = weights or [1.0 / len(problems)] * len(problems)
+    k = model.names.index(name)
+    free = np.array([j for j in space.free if j != k])
+    lo, hi = np.asarray(space.bounds.lower)[free], np.asarray(space.bounds.upper)[free]
+    z0 = np.clip((np.asarray(x)[free] - lo) / np.where(hi > lo, hi - lo, 1.0), 1e-12, 1 - 1e-12)
+    y0 = jnp.arcsin(2 * jnp.asarray(z0) - 1)
+    base = jnp.asarray(x, dtype=jnp.float64)
+
+    def full(y, v):
+        xf = jnp.asarray(lo) + (jnp.asarray(hi) - jnp.asarray(lo)) * 0.5 * (jnp.sin(y) + 1)
+        return base.at[free].set(xf).at[k].set(v)
+
+    def fn(y, v):
+        return stacked_residuals(full(y, v), problems, weights)
+
+    @jax.jit
+    def solve(v):
+        sol = optx.least_squares(fn, optx.LevenbergMarquardt(rtol=1e-10, atol=1e-14), y0, args=v, max_steps=max_steps, throw=False)
+        r = fn(sol.value, v)
+        return jnp.sum(r * r)
+
+    return np.array([float(solve(jnp.asarray(v, dtype=jnp.float64))) for v in values])
+
+
+INCONSISTENT, CONSISTENT = "inconsistent between recordings", "consistent between recordings"
+
+
+def consistency(uncertainties: dict[str, Uncertainty], threshold: float = 3.0) -> dict[str, dict]:
+    """Do separate fits of one drive agree within their standard errors (Section 4.2.5)?
+
+    For each parameter, the inverse-variance weighted mean of the fits and the largest
+    z = |x_r - mean| / se_r. z > `threshold` means the recordings disagree by far more than the
+    linearized errors explain (systematic model/measurement error), e.g. the paper's La between
+    MD1–MD3. Parameters not identifiable in every fit are reported as such."""
+    names = list(uncertainties)
+    out = {}
+    for n in uncertainties[names[0]].params:
+        x = np.array([uncertainties[r].params[n] for r in names])
+        se = np.array([uncertainties[r].se[n] for r in names])
+        if all(uncertainties[r].verdict[n] == FIXED for r in names):
+            out[n] = {"values": x.tolist(), "se": se.tolist(), "spread": 0.0, "max_z": None, "verdict": FIXED}
+            continue
+        identifiable = [uncertainties[r].verdict[n] not in (NOT, FIXED) for r in names]
+        spread = float((x.max() - x.min()) / abs(x.mean())) if x.mean() else np.inf
+        if not all(identifiable):
+            out[n] = {
+                "values": x.tolist(),
+                "se": se.tolist(),
+                "spread": spread,
+                "max_z": None,
+                "verdict": f"not identifiable in {', '.join(r for r, ok in zip(names, identifiable) if not ok)}",
+            }
+            continue
+        w = 1.0 / np.maximum(se, 1e-300) ** 2
+        mean = float(np.sum(w * x) / np.sum(w))
+        z = float(np.max(np.abs(x - mean) / np.maximum(se, 1e-300)))
+        out[n] = {
+            "values": x.tolist(),
+            "se": se.tolist(),
+            "spread": spread,
+            "max_z": z,
+            "verdict": INCONSISTENT if z > threshold else CONSISTENT,
+        }
+    return out

@@ -14,7 +14,7 @@ def _f(p, u, i, w):
 
 
 def simulate_numpy(x, t, u, i0=0.0, w0=0.0, integrator="rk4", nd=1, i_limit=None) -> np.ndarray:
-    """x: (7,) or (P, 7) parameters. Returns (N, 2) or (P, N, 2): current and speed at t."""
+    """x: (P,) or (B, P) parameters of the paper's model (`DC.names` order). Returns (N, 2) or (B, N, 2): current and speed at t."""
     x = np.asarray(x, dtype=np.float64)
     single = x.ndim == 1
     p = tuple(np.atleast_2d(x).T)  # seven (P,) arrays

@@ -9,11 +9,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from dcjax.datasets import write_or_check
+from dcjax.datasets import DATA_DIR, write_or_check
 from dcjax.emulate import emulate, md_settings
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--check", action="store_true")
     makers = {name: (lambda n=name: emulate(md_settings(n))) for name in ("MD1", "MD2", "MD3", "MD4")}
-    sys.exit(write_or_check(makers, Path(__file__).resolve().parent, ap.parse_args().check))
+    sys.exit(write_or_check(makers, [Path(__file__).resolve().parent, DATA_DIR], ap.parse_args().check))

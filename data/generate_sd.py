@@ -9,10 +9,10 @@ import functools
 import sys
 from pathlib import Path
 
-from dcjax.datasets import SD_PARAMS, generate_sd, write_or_check
+from dcjax.datasets import DATA_DIR, SD_PARAMS, generate_sd, write_or_check
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--check", action="store_true")
     makers = {name: functools.partial(generate_sd, name) for name in SD_PARAMS}
-    sys.exit(write_or_check(makers, Path(__file__).resolve().parent, ap.parse_args().check))
+    sys.exit(write_or_check(makers, [Path(__file__).resolve().parent, DATA_DIR], ap.parse_args().check))

@@ -75,23 +75,32 @@ def load(name: str) -> Recording:
     return rec.replace(metadata={**rec.metadata, "source": {"embedded": key, "name": key}})
 
 
-def write_or_check(makers: dict, folder: Path, check: bool) -> int:
-    """Write `NAME.csv` (+ sidecar) for each `makers[NAME]()` recording into `folder`, or with
-    `check` compare a fresh generation with the files there byte for byte (1 if any differs)."""
+def write_or_check(makers: dict, folders: Path | list[Path], check: bool) -> int:
+    """Write `NAME.csv` (+ sidecar) for each `makers[NAME]()` recording into every folder of
+    `folders` (the repository's data/ and the package's dcjax/data/), or with `check` compare a
+    fresh generation with the files there byte for byte (1 if any differs)."""
     import tempfile
 
     from .recording import save_csv
+
+    folders = [folders] if isinstance(folders, Path) else list(folders)
 
     def write_all(where: Path) -> None:
         for name, make in makers.items():
             save_csv(make(), where / f"{name}.csv")
 
     if not check:
-        write_all(folder)
-        print(f"wrote {', '.join(makers)} to {folder}")
+        for folder in folders:
+            write_all(folder)
+            print(f"wrote {', '.join(makers)} to {folder}")
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         write_all(Path(tmp))
-        bad = [f.name for f in sorted(Path(tmp).iterdir()) if f.read_bytes() != (folder / f.name).read_bytes()]
+        bad = [
+            str(folder / f.name)
+            for folder in folders
+            for f in sorted(Path(tmp).iterdir())
+            if not (folder / f.name).is_file() or f.read_bytes() != (folder / f.name).read_bytes()
+        ]
     print("identical" if not bad else f"differ: {bad}")
     return 1 if bad else 0

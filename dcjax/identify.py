@@ -11,7 +11,7 @@ from jax.sharding import PartitionSpec
 from .bounds import Bounds, resolve_bounds
 from .models import Model, get_model
 from .objectives import objective
-from .problem import make_problem
+from .problem import check_positive_int, make_problem
 from .recording import Recording
 from .result import IdentificationResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
@@ -73,11 +73,6 @@ def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
                 raise ValueError(f"start value {n}={v:g} lies outside its bounds [{lo[j]:g}, {hi[j]:g}]")
             out[i, j] = (v - lo[j]) / (hi[j] - lo[j])
     return out
-
-
-def _positive_int(name, v):
-    if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
-        raise ValueError(f"{name} must be a positive integer, got {v!r}")
 
 
 def identify(
@@ -160,7 +155,7 @@ def identify(
     if nd == "auto":
         return _identify_auto_nd(recordings, nd_tol=nd_tol, nd_max=nd_max, **common)
     for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
-        _positive_int(name, v)
+        check_positive_int(name, v)
     if budget < pop_size:
         raise ValueError(f"budget ({budget}) must be at least one population ({pop_size})")
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
@@ -168,7 +163,7 @@ def identify(
     if memory is not None and memory not in MEMORY_KINDS:
         raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {memory!r}")
     if generations is not None:
-        _positive_int("generations", generations)
+        check_positive_int("generations", generations)
     assert not isinstance(nd, str)
     b = resolve_bounds(model, bounds)
     space = make_space(model, b, fixed)
@@ -220,7 +215,7 @@ def identify(
         "weights": [float(w) for w in (weights if weights is not None else [1.0] * len(model.outputs))],
         "bounds": {"lower": np.asarray(b.lower).tolist(), "upper": np.asarray(b.upper).tolist()},
         "fixed": space.fixed,
-        "x0": None if z0 is None else (x0 if isinstance(x0, (dict, list)) else np.asarray(x0).tolist()),
+        "x0": None if x0 is None else (x0 if isinstance(x0, (dict, list)) else np.asarray(x0).tolist()),
         "runs": runs,
         "budget": budget,
         "seed": seed,

@@ -195,7 +195,7 @@ def load_recording(
         "units": units or None,
         "delimiter": delimiter,
         "decimal": decimal,
-        "window": _window(window) and list(_window(window) or ()),
+        "window": None if window is None else list(_window(window) or ()),
         "every": every,
         "trim": trim,
         "i_limit": i_limit,

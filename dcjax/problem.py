@@ -51,7 +51,7 @@ class Problem(eqx.Module):
         return self.measured("omega")
 
 
-def _positive_int(name, v):
+def check_positive_int(name: str, v) -> None:
     if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
         raise ValueError(f"{name} must be a positive integer, got {v!r}")
 
@@ -85,8 +85,8 @@ def make_problem(
     model = get_model(model)
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
-    _positive_int("nd", nd)
-    _positive_int("unroll", unroll)
+    check_positive_int("nd", nd)
+    check_positive_int("unroll", unroll)
     outs = model.outputs
     if weights is None:
         weights = (1.0,) * len(outs)

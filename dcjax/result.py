@@ -75,8 +75,6 @@ class IdentificationResult:
             for r in recs
         ]
 
-    _problems = problems
-
     def uncertainty(self, profile: str | None = None, profile_points: int = 11):
         """Standard errors, 95 % intervals, correlations and identifiability verdicts at the best
         parameters (`dcjax.uncertainty`); fixed parameters are known. With `profile="Tla"` also a
@@ -173,7 +171,7 @@ class IdentificationResult:
         prob = self.problems([recording or self.recording])[0]
         return np.asarray(simulate(np.array([self.params[n] for n in self.names]), prob))
 
-    def plot(self, path: str | Path | None = None, true_params: dict | None = None, **kw):
+    def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
         convergence; see `dcjax.plotting.plot_result`."""
         from .plotting import plot_result

@@ -29,10 +29,6 @@ def stationary_instants(
 SHORT = {"u_a": "u", "i_a": "i", "omega": "w"}  # row keys of the paper's channels (Table 18)
 
 
-def _param_dict(params, model: Model) -> dict[str, float]:
-    return model.to_floats(params)
-
-
 def stationary_check(params, recording: Recording, times=None, count: int = 5, model: Model | str | None = None) -> list[dict]:
     """The model's stationary relations at steady samples (for the paper's model eq. 25–26,
     di/dt = dw/dt = 0):
@@ -43,7 +39,7 @@ def stationary_check(params, recording: Recording, times=None, count: int = 5, m
     `<c>_dev_pct` = |calc - meas| / |meas| in %. `times`: the instants to use (nearest samples);
     default `stationary_instants`. La and J do not enter (Table 18)."""
     model = get_model(model)
-    p = _param_dict(params, model)
+    p = model.to_floats(params)
     if times is None:
         idx = stationary_instants(recording, count)
     else:

@@ -10,6 +10,7 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .base import Model
@@ -142,6 +143,4 @@ class DCCoulomb(DC):
         return di, dw
 
     def load_torque(self, p, w):
-        import numpy as np
-
         return p["Tla"] * w / np.sqrt(w * w + self.w_eps**2) + p["Tlb"] * w + p["Tlc"] * w * np.abs(w)

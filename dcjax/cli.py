@@ -83,6 +83,12 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--precision", default=None, help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)")
     f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
+    f.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
     _add_data_options(f)
     s = sub.add_parser("simulate", help="simulate a saved result on a recording: CSV of measured and simulated channels, and a plot")
     s.add_argument("result", help="result.json of a fit")
@@ -180,6 +186,7 @@ def fit(args) -> int:
         model=model,
         fixed=fixed or None,
         x0=x0,
+        progress=sys.stderr.isatty() if args.progress is None else args.progress,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -17,12 +17,89 @@ from .result import IdentificationResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
 from .space import Space, make_space
 from .strategies import Strategy, make_strategy, run
-from .strategies.base import FitnessFn
+from .strategies.base import FitnessFn, iteration_limit, run_active, run_output, run_start, run_steps
 from .strategies.memory import MEMORY_KINDS, physical_precision, unit_precision
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
 # (other weights, bounds or recordings of equal length) reuse them.
-EXECUTABLES = ExecutableCache(size=4)
+EXECUTABLES = ExecutableCache(size=6)
+PROGRESS_CHUNKS = 20
+
+
+def _run_in_chunks(build, cache_key, args, runs: int, progress):
+    """The runs advanced chunk by chunk, reporting the fraction of iterations done; returns
+    (RunOutput, compile seconds, run seconds, whether every executable was reused)."""
+    strategy, budget, memory, generations = build[:4]
+    t_max = iteration_limit(strategy, budget, memory, generations)
+    keys, problems, space = args[:3]
+    compile_s = run_s = 0.0
+    reused_all = True
+
+    def get(tag, k, example):
+        nonlocal compile_s, reused_all
+        t = time.perf_counter()
+        fn, reused = EXECUTABLES.get((*cache_key, tag), lambda: _batched_chunks(*build)[k], example)
+        compile_s += time.perf_counter() - t
+        reused_all &= reused
+        return fn
+
+    report = progress if callable(progress) else _tqdm_progress(runs * t_max)
+    try:
+        start = get("start", 0, args)
+        t = time.perf_counter()
+        carry = jax.block_until_ready(start(*args))
+        run_s += time.perf_counter() - t
+        steps = get("steps", 1, (carry, problems, space, jnp.asarray(0)))
+        bounds = np.unique(np.linspace(0, t_max, PROGRESS_CHUNKS + 1).round().astype(int)[1:])
+        for until in bounds:
+            t = time.perf_counter()
+            carry, done, active = steps(carry, problems, space, jnp.asarray(until))
+            done, active = np.asarray(done)[:runs], np.asarray(active)[:runs]
+            run_s += time.perf_counter() - t
+            report(float(np.mean(done)))
+            if not active.any():
+                break
+        output = get("output", 2, (carry,))
+        t = time.perf_counter()
+        out = jax.block_until_ready(output(carry))
+        run_s += time.perf_counter() - t
+    finally:
+        if not callable(progress):
+            report(None)
+    return out, compile_s, run_s, reused_all
+
+
+def _tqdm_progress(total: int):
+    """A callback that moves a tqdm bar (on stderr) to `fraction * total`; `None` closes it."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit="it", desc="iterations (all runs)", leave=False, dynamic_ncols=True)
+
+    def report(fraction):
+        if fraction is None:
+            bar.close()
+            return
+        bar.update(int(round(fraction * total)) - bar.n)
+
+    return report
+
+
+def _fitness(space, problems, jw) -> FitnessFn:
+    def of(z):
+        x = space.to_physical(z)
+        return sum(w * objective(x, prob) for w, prob in zip(jw, problems))
+
+    return of  # pyright: ignore[reportReturnType]
+
+
+def _per_device(fn, mesh, n_args: int, memory=True):
+    """On several devices, each device runs its own vmapped batch of runs (shard_map): compaction
+    stays local to the device (memory), and a device's loop does not wait for the others'. The
+    first argument is split along the runs."""
+    if memory is None or mesh is None:
+        return fn
+    spec, rep = PartitionSpec("runs"), PartitionSpec()
+    return jax.shard_map(fn, mesh=mesh, in_specs=(spec, *[rep] * (n_args - 1)), out_specs=spec, check_vma=False)
 
 
 def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim):
@@ -31,19 +108,31 @@ def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim):
     executable."""
 
     def one_run(key, problems, space, prec, x0):
-        def of(z):
-            x = space.to_physical(z)
-            return sum(w * objective(x, prob) for w, prob in zip(jw, problems))
-
-        fn: FitnessFn = of  # pyright: ignore[reportAssignmentType]
+        fn = _fitness(space, problems, jw)
         return run(strategy, key, fn, budget, dim, memory=memory, precision=prec, generations=generations, x0=x0)
 
-    batched = jax.vmap(one_run, in_axes=(0, None, None, None, None))
-    if memory is not None and mesh is not None:
-        # Each device runs its own vmapped batch, so compaction stays local to the device.
-        spec, rep = PartitionSpec("runs"), PartitionSpec()
-        batched = jax.shard_map(batched, mesh=mesh, in_specs=(spec, rep, rep, rep, rep), out_specs=spec, check_vma=False)
-    return jax.jit(batched)
+    return jax.jit(_per_device(jax.vmap(one_run, in_axes=(0, None, None, None, None)), mesh, 5))
+
+
+def _batched_chunks(strategy, budget, memory, generations, jw, mesh, dim):
+    """The same runs in pieces, for progress: `start(keys, problems, space, prec, x0) -> carry`
+    and `steps(carry, problems, space, until) -> (carry, fraction done, active)`, which advances every
+    run to at most `until` iterations (one executable for every chunk; results equal `run`'s)."""
+    t_max = iteration_limit(strategy, budget, memory, generations)
+
+    def one_start(key, problems, space, prec, x0):
+        fn = _fitness(space, problems, jw)
+        return run_start(strategy, key, fn, budget, dim, memory, prec, generations, None, x0)
+
+    def one_steps(carry, problems, space, until):
+        carry = run_steps(strategy, carry, _fitness(space, problems, jw), budget, t_max, until)
+        active = run_active(strategy, carry, budget, t_max)
+        done = jnp.maximum(carry.it / t_max, carry.state.fes / budget)  # memory: the budget may end a run first
+        return carry, jnp.where(active, jnp.minimum(done, 1.0), 1.0), active
+
+    start = jax.jit(_per_device(jax.vmap(one_start, in_axes=(0, None, None, None, None)), mesh, 5))
+    steps = jax.jit(_per_device(jax.vmap(one_steps, in_axes=(0, None, None, None)), mesh, 4), donate_argnums=0)
+    return start, steps, jax.jit(_per_device(jax.vmap(run_output), mesh, 1))
 
 
 def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
@@ -98,6 +187,7 @@ def identify(
     model: Model | str | None = None,
     fixed: dict[str, float] | None = None,
     x0=None,
+    progress=None,
 ) -> IdentificationResult:
     """Identify the parameters of `model` (default: the paper's DC drive, `Ra, La, cm, J, Tla,
     Tlb, Tlc`) from `recording`.
@@ -123,7 +213,11 @@ def identify(
     `precision` (physical units, default the model's: Table 29, see `dcjax.strategies.memory`)
     of a record is not simulated and costs no FE, so the budget lasts longer; `generations` caps
     the iterations (the paper's Tables 30–33 compare equal iteration counts: 1999 DE steps after
-    the initial population = 70 x 2000 candidates)."""
+    the initial population = 70 x 2000 candidates).
+
+    `progress`: `True` shows a tqdm bar of the iterations done (over all runs), a callable is
+    called with the fraction done (0..1); the runs then advance in `PROGRESS_CHUNKS` pieces of
+    one executable each (same results as without progress)."""
     recordings = recording if isinstance(recording, (list, tuple)) else [recording]
     if not recordings or not all(isinstance(r, Recording) for r in recordings):
         raise ValueError("recording must be a dcjax.Recording or a non-empty list of them")
@@ -178,13 +272,16 @@ def identify(
     keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
     args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
     cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), leaf_signature(args))
-    t0 = time.perf_counter()
-    compiled, reused = EXECUTABLES.get(
-        cache_key, lambda: _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh, space.dim), args
-    )
-    t1 = time.perf_counter()
-    out = jax.block_until_ready(compiled(*args))
-    t2 = time.perf_counter()
+    build = (strategy, budget, memory, generations, tuple(jw), mesh, space.dim)
+    if progress is None or progress is False:
+        t0 = time.perf_counter()
+        compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_runs(*build), args)
+        t1 = time.perf_counter()
+        out = jax.block_until_ready(compiled(*args))
+        t2 = time.perf_counter()
+        compile_s, run_s = t1 - t0, t2 - t1
+    else:
+        out, compile_s, run_s, reused = _run_in_chunks(build, cache_key, args, runs, progress)
     out = jax.tree.map(lambda a: a[:runs], out)
     run_x = np.asarray(space.to_physical(out.best_x))
     run_of = np.asarray(out.best_f)
@@ -236,7 +333,7 @@ def identify(
         iterations=np.asarray(out.iterations),
         history=np.asarray(out.history),
         settings=settings,
-        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": len(devices), "reused_executable": reused},
+        timing={"compile_s": compile_s, "run_s": run_s, "devices": len(devices), "reused_executable": reused},
         polish=polish_info,
         dups=None if memory is None else np.asarray(out.dups),
         memory_chunks=None if memory is None else np.asarray(out.chunks),

@@ -171,3 +171,18 @@ def test_repeated_identify_does_not_accumulate_memory_mappings(sd1):
         identify(sd1, method=method, runs=1, budget=140, seed=k, pop_size=70 - (k >= 5))  # 8 distinct executables
         counts.append(maps())
     assert counts[-1] - counts[3] < 600, counts  # were the executables kept: ~450 more per call
+
+
+def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
+    """Chunked runs (progress) give the same bits as one compiled run, memory or not; the CLI's
+    --progress draws a bar on stderr."""
+    for memory in (None, "stma"):
+        kw = dict(runs=3, budget=7000, seed=4, memory=memory)
+        seen = []
+        a, b = identify(sd1, **kw), identify(sd1, progress=seen.append, **kw)
+        for f in ("run_of", "run_params", "fes", "iterations"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+        np.testing.assert_array_equal(a.history, b.history)
+        assert seen == sorted(seen) and seen[-1] == 1.0 and (memory is not None or len(seen) >= 10)
+    assert main(["fit", "SD1", "--runs", "1", "--budget", "1400", "--progress", "--out", str(tmp_path)]) == 0
+    assert "iterations (all runs)" in capsys.readouterr().err

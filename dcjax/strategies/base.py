@@ -187,6 +187,78 @@ class RunOutput(eqx.Module):
 MEMORY_ITERATION_FACTOR = 20
 
 
+class RunCarry(eqx.Module):
+    """A run between iterations: the strategy's state, the iteration count, the best OF after
+    each iteration so far and the key of the iterations."""
+
+    state: State
+    it: Int[Array, ""]
+    history: Float[Array, " T"]
+    key: PRNGKeyArray
+
+
+def iteration_limit(strategy: Strategy, budget: int, memory: str | None = None, generations: int | None = None) -> int:
+    """The most iterations a run makes (see `run`)."""
+    if generations is not None:
+        return int(generations)
+    return max(1, strategy.max_iterations(budget)) * (1 if memory is None else MEMORY_ITERATION_FACTOR)
+
+
+def run_start(
+    strategy: Strategy,
+    key: PRNGKeyArray,
+    fn: FitnessFn,
+    budget: int,
+    dim: int,
+    memory: str | None = None,
+    precision: Float[Array, " D"] | None = None,
+    generations: int | None = None,
+    capacity: int | None = None,
+    x0: Float[Array, "K D"] | None = None,
+) -> RunCarry:
+    """The evaluated initial population (and memory) of a run; see `run`."""
+    t_max = iteration_limit(strategy, budget, memory, generations)
+    k_init, k_run = jax.random.split(key)
+    state = with_best(strategy.init(k_init, fn, budget, dim, x0))
+    if memory is not None:
+        if precision is None:
+            raise ValueError("memory needs a precision vector (unit-cube units)")
+        evaluated = jnp.arange(state.pop.shape[0]) < state.fes
+        cap = capacity if capacity is not None else budget + strategy.pop_size
+        state = state.replace(memory=Memory.create(memory, precision, state.pop, state.fit, evaluated, cap))
+    return RunCarry(state, jnp.asarray(0), jnp.full((max(1, t_max),), jnp.nan), k_run)
+
+
+def run_active(strategy: Strategy, carry: RunCarry, budget: int, t_max: int) -> Bool[Array, ""]:
+    """Whether the run goes on: budget for another step is left and fewer than `t_max` iterations."""
+    return (carry.state.fes + strategy.cost <= budget) & (carry.it < t_max)
+
+
+def run_steps(strategy: Strategy, carry: RunCarry, fn: FitnessFn, budget: int, t_max: int, until=None) -> RunCarry:
+    """Iterate while the run is active and, with `until`, while fewer than `until` iterations are
+    done (so a run can be advanced in chunks with one executable; the result does not depend on
+    the chunking: iteration `it` always uses `fold_in(key, it)`)."""
+
+    def cond(c: RunCarry):
+        go = run_active(strategy, c, budget, t_max)
+        return go if until is None else go & (c.it < until)
+
+    def body(c: RunCarry):
+        state = with_best(strategy.step(jax.random.fold_in(c.key, c.it), c.state, fn, budget))
+        if state.memory is not None:
+            state = state.replace(memory=state.memory.refresh(state.pop, state.fit))
+        return RunCarry(state, c.it + 1, c.history.at[c.it].set(state.best_f), c.key)
+
+    return jax.lax.while_loop(cond, body, carry)
+
+
+def run_output(carry: RunCarry) -> RunOutput:
+    state = carry.state
+    chunks = jnp.asarray(0) if state.memory is None else state.memory.chunks
+    dups = jnp.asarray(0) if state.dups is None else state.dups
+    return RunOutput(state.best_x, state.best_f, state.fes, carry.it, carry.history, dups, chunks)
+
+
 def run(
     strategy: Strategy,
     key: PRNGKeyArray,
@@ -206,32 +278,8 @@ def run(
     units. Duplicates cost no FEs, so a budget lasts longer: without `generations` a run with
     memory stops at the budget or at `MEMORY_ITERATION_FACTOR` x the memory-free iteration count.
     The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
-    initial population (see `Strategy.init`)."""
-    if generations is not None:
-        t_max = int(generations)
-    else:
-        t_max = max(1, strategy.max_iterations(budget)) * (1 if memory is None else MEMORY_ITERATION_FACTOR)
-    k_init, k_run = jax.random.split(key)
-    state = with_best(strategy.init(k_init, fn, budget, dim, x0))
-    if memory is not None:
-        if precision is None:
-            raise ValueError("memory needs a precision vector (unit-cube units)")
-        evaluated = jnp.arange(state.pop.shape[0]) < state.fes
-        cap = capacity if capacity is not None else budget + strategy.pop_size
-        state = state.replace(memory=Memory.create(memory, precision, state.pop, state.fit, evaluated, cap))
-    history = jnp.full((max(1, t_max),), jnp.nan)
-
-    def cond(carry):
-        state, it, _ = carry
-        return (state.fes + strategy.cost <= budget) & (it < t_max)
-
-    def body(carry):
-        state, it, history = carry
-        state = with_best(strategy.step(jax.random.fold_in(k_run, it), state, fn, budget))
-        if state.memory is not None:
-            state = state.replace(memory=state.memory.refresh(state.pop, state.fit))
-        return state, it + 1, history.at[it].set(state.best_f)
-
-    state, it, history = jax.lax.while_loop(cond, body, (state, jnp.asarray(0), history))
-    chunks = jnp.asarray(0) if state.memory is None else state.memory.chunks
-    return RunOutput(state.best_x, state.best_f, state.fes, it, history, jnp.asarray(0) if state.dups is None else state.dups, chunks)
+    initial population (see `Strategy.init`). The same run in pieces: `run_start`, `run_steps`
+    (with `until`), `run_output`."""
+    t_max = iteration_limit(strategy, budget, memory, generations)
+    carry = run_start(strategy, key, fn, budget, dim, memory, precision, generations, capacity, x0)
+    return run_output(run_steps(strategy, carry, fn, budget, t_max))

@@ -26,49 +26,6 @@ EXECUTABLES = ExecutableCache(size=6)
 PROGRESS_CHUNKS = 20
 
 
-def _run_in_chunks(build, cache_key, args, runs: int, progress):
-    """The runs advanced chunk by chunk, reporting the fraction of iterations done; returns
-    (RunOutput, compile seconds, run seconds, whether every executable was reused)."""
-    strategy, budget, memory, generations = build[:4]
-    t_max = iteration_limit(strategy, budget, memory, generations)
-    keys, problems, space = args[:3]
-    compile_s = run_s = 0.0
-    reused_all = True
-
-    def get(tag, k, example):
-        nonlocal compile_s, reused_all
-        t = time.perf_counter()
-        fn, reused = EXECUTABLES.get((*cache_key, tag), lambda: _batched_chunks(*build)[k], example)
-        compile_s += time.perf_counter() - t
-        reused_all &= reused
-        return fn
-
-    report = progress if callable(progress) else _tqdm_progress(runs * t_max)
-    try:
-        start = get("start", 0, args)
-        t = time.perf_counter()
-        carry = jax.block_until_ready(start(*args))
-        run_s += time.perf_counter() - t
-        steps = get("steps", 1, (carry, problems, space, jnp.asarray(0)))
-        bounds = np.unique(np.linspace(0, t_max, PROGRESS_CHUNKS + 1).round().astype(int)[1:])
-        for until in bounds:
-            t = time.perf_counter()
-            carry, done, active = steps(carry, problems, space, jnp.asarray(until))
-            done, active = np.asarray(done)[:runs], np.asarray(active)[:runs]
-            run_s += time.perf_counter() - t
-            report(float(np.mean(done)))
-            if not active.any():
-                break
-        output = get("output", 2, (carry,))
-        t = time.perf_counter()
-        out = jax.block_until_ready(output(carry))
-        run_s += time.perf_counter() - t
-    finally:
-        if not callable(progress):
-            report(None)
-    return out, compile_s, run_s, reused_all
-
-
 def _tqdm_progress(total: int):
     """A callback that moves a tqdm bar (on stderr) to `fraction * total`; `None` closes it."""
     from tqdm import tqdm
@@ -102,27 +59,41 @@ def _per_device(fn, mesh, n_args: int, memory=True):
     return jax.shard_map(fn, mesh=mesh, in_specs=(spec, *[rep] * (n_args - 1)), out_specs=spec, check_vma=False)
 
 
-def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim):
+class _ProgressSink:
+    """Where the compiled runs report progress: the executable calls `report` (a
+    `jax.debug.callback`, once per device and chunk, outside the vmap over runs); `identify`
+    points `target` at the caller's callback for the duration of one call."""
+
+    def __init__(self):
+        self.target = None
+        self.done: dict[int, np.ndarray] = {}
+
+    def report(self, device, done):
+        self.done[int(device)] = np.asarray(done)
+        if self.target is not None:
+            self.target(float(np.mean(np.concatenate([self.done[d] for d in sorted(self.done)]))))
+
+
+PROGRESS = _ProgressSink()
+
+
+def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim, progress: bool = False):
     """All runs as one function of (keys, problems, space, precision, x0): data are arguments,
     not constants, so recordings of equal length (and other weights or bounds) reuse one
-    executable."""
+    executable. With `progress`, each device advances its runs in `PROGRESS_CHUNKS` chunks of
+    iterations (an outer loop around the vmapped one) and reports the fraction done between
+    chunks; the results are the same bits (iteration `it` always uses `fold_in(key, it)`)."""
 
     def one_run(key, problems, space, prec, x0):
         fn = _fitness(space, problems, jw)
         return run(strategy, key, fn, budget, dim, memory=memory, precision=prec, generations=generations, x0=x0)
 
-    return jax.jit(_per_device(jax.vmap(one_run, in_axes=(0, None, None, None, None)), mesh, 5))
-
-
-def _batched_chunks(strategy, budget, memory, generations, jw, mesh, dim):
-    """The same runs in pieces, for progress: `start(keys, problems, space, prec, x0) -> carry`
-    and `steps(carry, problems, space, until) -> (carry, fraction done, active)`, which advances every
-    run to at most `until` iterations (one executable for every chunk; results equal `run`'s)."""
+    if not progress:
+        return jax.jit(_per_device(jax.vmap(one_run, in_axes=(0, None, None, None, None)), mesh, 5))
     t_max = iteration_limit(strategy, budget, memory, generations)
 
     def one_start(key, problems, space, prec, x0):
-        fn = _fitness(space, problems, jw)
-        return run_start(strategy, key, fn, budget, dim, memory, prec, generations, None, x0)
+        return run_start(strategy, key, _fitness(space, problems, jw), budget, dim, memory, prec, generations, None, x0)
 
     def one_steps(carry, problems, space, until):
         carry = run_steps(strategy, carry, _fitness(space, problems, jw), budget, t_max, until)
@@ -130,9 +101,26 @@ def _batched_chunks(strategy, budget, memory, generations, jw, mesh, dim):
         done = jnp.maximum(carry.it / t_max, carry.state.fes / budget)  # memory: the budget may end a run first
         return carry, jnp.where(active, jnp.minimum(done, 1.0), 1.0), active
 
-    start = jax.jit(_per_device(jax.vmap(one_start, in_axes=(0, None, None, None, None)), mesh, 5))
-    steps = jax.jit(_per_device(jax.vmap(one_steps, in_axes=(0, None, None, None)), mesh, 4), donate_argnums=0)
-    return start, steps, jax.jit(_per_device(jax.vmap(run_output), mesh, 1))
+    def device_runs(keys, problems, space, prec, x0):
+        device = jax.lax.axis_index("runs") if mesh is not None else 0
+        carry = jax.vmap(one_start, in_axes=(0, None, None, None, None))(keys, problems, space, prec, x0)
+
+        def cond(c):
+            chunk, _, active = c
+            return (chunk < PROGRESS_CHUNKS) & jnp.any(active)
+
+        def body(c):
+            chunk, carry, _ = c
+            until = ((chunk + 1) * t_max + PROGRESS_CHUNKS - 1) // PROGRESS_CHUNKS
+            carry, done, active = jax.vmap(one_steps, in_axes=(0, None, None, None))(carry, problems, space, until)
+            jax.debug.callback(PROGRESS.report, device, done)
+            return chunk + 1, carry, active
+
+        active = jnp.ones(keys.shape[0], bool)
+        _, carry, _ = jax.lax.while_loop(cond, body, (jnp.asarray(0), carry, active))
+        return jax.vmap(run_output)(carry)
+
+    return jax.jit(_per_device(device_runs, mesh, 5))
 
 
 def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
@@ -216,8 +204,8 @@ def identify(
     the initial population = 70 x 2000 candidates).
 
     `progress`: `True` shows a tqdm bar of the iterations done (over all runs), a callable is
-    called with the fraction done (0..1); the runs then advance in `PROGRESS_CHUNKS` pieces of
-    one executable each (same results as without progress)."""
+    called with the fraction done (0..1), `PROGRESS_CHUNKS` times during the run, from inside the
+    compiled loop (same results as without progress)."""
     recordings = recording if isinstance(recording, (list, tuple)) else [recording]
     if not recordings or not all(isinstance(r, Recording) for r in recordings):
         raise ValueError("recording must be a dcjax.Recording or a non-empty list of them")
@@ -272,16 +260,26 @@ def identify(
     keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
     args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
     cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), leaf_signature(args))
-    build = (strategy, budget, memory, generations, tuple(jw), mesh, space.dim)
-    if progress is None or progress is False:
-        t0 = time.perf_counter()
-        compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_runs(*build), args)
-        t1 = time.perf_counter()
+    show = progress is not None and progress is not False
+    t0 = time.perf_counter()
+    compiled, reused = EXECUTABLES.get(
+        (*cache_key, show), lambda: _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh, space.dim, show), args
+    )
+    t1 = time.perf_counter()
+    report = (
+        (progress if callable(progress) else _tqdm_progress(runs * iteration_limit(strategy, budget, memory, generations)))
+        if show
+        else None
+    )
+    PROGRESS.target, PROGRESS.done = report, {}
+    try:
         out = jax.block_until_ready(compiled(*args))
-        t2 = time.perf_counter()
-        compile_s, run_s = t1 - t0, t2 - t1
-    else:
-        out, compile_s, run_s, reused = _run_in_chunks(build, cache_key, args, runs, progress)
+    finally:
+        PROGRESS.target = None
+        if show and not callable(progress):
+            report(None)  # pyright: ignore[reportOptionalCall]
+    t2 = time.perf_counter()
+    compile_s, run_s = t1 - t0, t2 - t1
     out = jax.tree.map(lambda a: a[:runs], out)
     run_x = np.asarray(space.to_physical(out.best_x))
     run_of = np.asarray(out.best_f)

@@ -1,5 +1,5 @@
 """Overhead of progress reporting (issue 13): `identify` on SD1 (DE/rand/1/exp, RK4, 140,000 FEs,
-50 runs, one CPU device per core) with and without `progress` (40 chunks), alternated, run times
+50 runs, one CPU device per core) with and without `progress` (`PROGRESS_CHUNKS` chunks), alternated, run times
 only (compilation excluded; every executable is compiled before the timed calls).
 
     .venv/bin/python -m experiments.bench_progress   (or python experiments/bench_progress.py)"""

@@ -22,7 +22,7 @@ except PackageNotFoundError:  # a source tree that was not installed
     __version__ = "0+unknown"
 
 from .bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
-from .devices import use_host_devices  # noqa: E402
+from .devices import use_compilation_cache, use_host_devices  # noqa: E402
 from .identify import identify  # noqa: E402
 from .integrate import simulate  # noqa: E402
 from .loading import load_recording  # noqa: E402
@@ -62,4 +62,5 @@ __all__ = [
     "IdentificationResult",
     "load_result",
     "use_host_devices",
+    "use_compilation_cache",
 ]

@@ -292,9 +292,10 @@ COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "rep
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from .devices import use_host_devices
+    from .devices import use_compilation_cache, use_host_devices
 
     use_host_devices()
+    use_compilation_cache()  # a repeated fit loads its executables (DCJAX_NO_CACHE=1: off)
     try:
         return COMMANDS[args.command](args)
     except ValueError as e:

@@ -1,4 +1,4 @@
-"""Asking JAX for one CPU device per core, explicitly.
+"""Asking JAX for one CPU device per core, and for a persistent compilation cache, explicitly.
 
 `import dcjax` changes no environment variable and no device setting. The CLI and the
 experiments call `use_host_devices()` first thing; in a notebook, do it yourself right after the
@@ -11,6 +11,7 @@ batched runs; a single run is not faster)."""
 
 import os
 import warnings
+from pathlib import Path
 
 import jax
 
@@ -33,3 +34,24 @@ def use_host_devices(n: int | None = None) -> int:
             )
         return have
     return n
+
+
+def cache_dir() -> Path:
+    """`$DCJAX_CACHE_DIR`, else `$XDG_CACHE_HOME/dcjax/xla` (default `~/.cache/dcjax/xla`)."""
+    if os.environ.get("DCJAX_CACHE_DIR"):
+        return Path(os.environ["DCJAX_CACHE_DIR"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "dcjax" / "xla"
+
+
+def use_compilation_cache(path: str | Path | None = None, min_compile_seconds: float = 0.5) -> Path | None:
+    """Turn on JAX's persistent compilation cache in `path` (default `cache_dir()`), so a second
+    identical fit in a new process loads its executables instead of compiling them. The `dcjax`
+    command and the experiments call this; set `DCJAX_NO_CACHE=1` to opt out (returns None).
+    Importing dcjax does not: in your own code, call it yourself."""
+    if os.environ.get("DCJAX_NO_CACHE", "").strip() not in ("", "0"):
+        return None
+    where = Path(path) if path is not None else cache_dir()
+    where.mkdir(parents=True, exist_ok=True)
+    jax.config.update("jax_compilation_cache_dir", str(where))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", float(min_compile_seconds))
+    return where

@@ -21,6 +21,7 @@ from cells import Cell, Store, run_cell
 import dcjax
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 
 @hydra.main(version_base="1.3", config_path="conf", config_name="cell")

@@ -14,6 +14,7 @@ from dcjax import TABLE4, datasets, identify
 from dcjax.strategies import DERand1Exp
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 
 def main():

@@ -18,6 +18,7 @@ from dcjax.datasets import DATA_DIR
 from dcjax.validation import cross_validation, stationary_check
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 try:
     from runstore import RunStore

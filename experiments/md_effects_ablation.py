@@ -14,6 +14,7 @@ from dcjax import PARAM_NAMES, identify
 from dcjax.emulate import LAB_EFFECTS, Effects, emulate, md_settings
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 CASES = {
     "none": Effects(),

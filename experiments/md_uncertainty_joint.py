@@ -15,6 +15,7 @@ from dcjax.datasets import DATA_DIR
 from dcjax.uncertainty import consistency
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 
 def main():

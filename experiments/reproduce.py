@@ -33,6 +33,7 @@ from report import write_report
 import dcjax
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 SUITES = ("table5", "md_methods", "weights", "nd", "memory")
 

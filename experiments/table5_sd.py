@@ -17,6 +17,7 @@ import dcjax
 from dcjax import PARAM_NAMES, datasets, identify
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 try:
     from runstore import RunStore

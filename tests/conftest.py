@@ -1,5 +1,11 @@
+import os
+
 import jax
 import pytest
+
+# The CLI turns on JAX's persistent compilation cache in the user's cache folder; tests call it
+# in-process and spawn it, so keep it off (tests/test_cache.py turns it on in a temporary folder).
+os.environ.setdefault("DCJAX_NO_CACHE", "1")
 
 import dcjax
 from dcjax import datasets

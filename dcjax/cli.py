@@ -201,9 +201,12 @@ def fit(args) -> int:
     print(
         f"{names}: model {model.name}, {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
     )
-    for step in result.settings.get("nd_sequence", []):
-        change = "" if step["max_rel_change"] is None else f", max rel. change {step['max_rel_change']:.2e}"
-        print(f"  ND={step['nd']}: OF {step['of']:.4e}{change}")
+    auto = result.settings.get("nd_auto")
+    if auto:
+        tried = ", ".join(f"ND={k}: {v:.1e}" for k, v in auto["errors_at_nd1_fit"].items())
+        print(
+            f"  nd auto: ND={auto['chosen']} (reference error {auto['reference_error']:.2e} <= {auto['tol']:g}: {auto['converged']}); at the ND=1 fit {tried}"
+        )
     header = f"{'param':>6} {'unit':>7} {'identified':>22}" + (f" {'true':>14} {'rel. error':>11}" if truth else "")
     print(header)
     for name in model.names:

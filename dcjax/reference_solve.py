@@ -30,7 +30,7 @@ def reference_simulate(
         us = tuple(jnp.interp(s, t, u[:, j]) for j in range(u.shape[1]))
         dy = model.vector_field(c, us, tuple(y))
         if k_lim is not None:
-            yk, dk, lim = y[k_lim], dy[k_lim], problem.limit
+            yk, dk, lim = y[k_lim], dy[k_lim], jnp.asarray(problem.limit)
             dk = jnp.where(((yk >= lim) & (dk > 0)) | ((yk <= -lim) & (dk < 0)), 0.0, dk)
             dy = dy[:k_lim] + (dk,) + dy[k_lim + 1 :]
         return jnp.stack(dy)
@@ -43,7 +43,7 @@ def reference_simulate(
         dt0=None,
         y0=jnp.stack(y0),
         saveat=diffrax.SaveAt(ts=t),
-        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol, jump_ts=t),
+        stepsize_controller=diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=t),
         max_steps=max_steps,
     )
     return sol.ys  # pyright: ignore[reportReturnType]

@@ -9,6 +9,7 @@ import numpy as np
 from jax.sharding import PartitionSpec
 
 from .bounds import Bounds, resolve_bounds
+from .kernel import kernel_mode
 from .models import Model, get_model
 from .objectives import objective
 from .problem import check_positive_int, make_problem
@@ -261,7 +262,7 @@ def identify(
     mesh = mesh_of(devices, "runs")
     keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
     args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
-    cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), leaf_signature(args))
+    cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), kernel_mode(), leaf_signature(args))
     show = progress is not None and progress is not False
     t0 = time.perf_counter()
     compiled, reused = EXECUTABLES.get(

@@ -43,10 +43,12 @@ def _lerp(ua, ub, s):
 def advance(c, problem: Problem, y: State, h, ua: State, ub: State) -> State:
     """One sample interval: `nd` equal sub-steps (eq. 28) with the inputs linearly interpolated
     from `ua` to `ub` (eq. 29); after every sub-step the limited state is clamped."""
-    model = problem.model
-    step = STEPS[problem.integrator]
-    nd = problem.nd
-    limit = problem.limit
+    return advance_with(problem.model, problem.integrator, problem.nd, problem.limit, c, y, h, ua, ub)
+
+
+def advance_with(model, integrator: str, nd: int, limit, c, y: State, h, ua: State, ub: State) -> State:
+    """`advance` with the settings spelled out (also used inside the Pallas kernel)."""
+    step = STEPS[integrator]
     if nd == 1:
         u_half = tuple(0.5 * (a + b) for a, b in zip(ua, ub))
         return model.clamp(step(model, c, y, h, ua, u_half, ub), limit)
@@ -88,7 +90,15 @@ def simulate(params, problem: Problem) -> Float[Array, "*batch n s"]:
 
     `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
     `Params`. Batched parameters (leading axes) are marched in one scan and the result has shape
-    `(*batch, N, S)`. `jax.vmap` over `params` gives the same."""
+    `(*batch, N, S)`. `jax.vmap` over `params` gives the same. A population (P, n) goes through
+    the Pallas kernel where `dcjax.kernel.kernel_mode()` says so (on a GPU)."""
+    from .kernel import BLOCK, kernel_mode, simulate_kernel  # the kernel builds on this module
+
+    mode = kernel_mode()
+    if mode is not None:
+        x = problem.model.as_array(params)
+        if x.ndim == 2:
+            return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
     c, y = prepare(params, problem)
     m = problem.u_start.shape[1]
 

@@ -5,9 +5,14 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .integrate import advance, prepare, simulate, split_inputs, step_inputs
+from .kernel import BLOCK, kernel_mode, objective_kernel
 from .problem import Problem, make_problem
 
 __all__ = ["Problem", "make_problem", "objective", "residuals", "population_objective"]
+
+
+def _block(x, mode: str) -> int:
+    return BLOCK if mode == "compiled" else min(BLOCK, max(8, x.shape[0]))
 
 
 def _finite_or_inf(of):
@@ -21,7 +26,13 @@ def objective(params, problem: Problem) -> Float[Array, "*batch"]:
 
     over all N samples of the recording (k = 0 is the initial state). The sum is accumulated
     inside the time scan, so no trajectory is stored. A non-finite simulation (La or J at 0,
-    overflow) gives +inf, never NaN. Batched `params` give one OF per member."""
+    overflow) gives +inf, never NaN. Batched `params` give one OF per member. A population (P, n)
+    goes through the Pallas kernel where `dcjax.kernel.kernel_mode()` says so (on a GPU)."""
+    mode = kernel_mode()
+    if mode is not None:
+        x = problem.model.as_array(params)
+        if x.ndim == 2:
+            return objective_kernel(x, problem, interpret=mode == "interpret", block=_block(x, mode))
     c, y = prepare(params, problem)
     m = problem.u_start.shape[1]
     outs = problem.model.output_index

@@ -38,6 +38,15 @@ class FleetResult:
         return [dict(zip(self.names, map(float, x))) for x in self.params]
 
 
+def _to_host(a: jax.Array) -> np.ndarray:
+    """The whole array on this host: gathered from every process after `jax.distributed`."""
+    if jax.process_count() > 1 and not a.is_fully_addressable:
+        from jax.experimental import multihost_utils
+
+        return np.asarray(multihost_utils.process_allgather(a, tiled=True))
+    return np.asarray(jax.device_get(a))
+
+
 def identify_fleet(
     recordings: list[Recording],
     method: str = "de-rand-1-exp",
@@ -91,7 +100,7 @@ def identify_fleet(
     t1 = time.perf_counter()
     x, f, fes = jax.block_until_ready(compiled(arrays, keys))
     t2 = time.perf_counter()
-    x, f, fes = (np.asarray(jax.device_get(a))[:m] for a in (x, f, fes))
+    x, f, fes = (_to_host(a)[:m] for a in (x, f, fes))
     return FleetResult(
         params=x,
         of=f,

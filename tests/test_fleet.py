@@ -4,6 +4,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -66,3 +67,27 @@ def test_fleet_bad_input():
         identify_fleet([recs[0], fleet_recordings(1, n=150)[0]])
     with pytest.raises(ValueError, match="non-empty"):
         identify_fleet([])
+
+
+def test_fleet_across_two_processes_equals_one_process():
+    """jax.distributed with two local CPU processes (gloo collectives): the motors are split over
+    both processes' devices and every process gets the whole, identical result."""
+    import socket
+
+    worker = str(Path(__file__).resolve().parent / "distributed_fleet_worker.py")
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        port = str(s.getsockname()[1])
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    procs = [
+        subprocess.Popen([sys.executable, worker, str(i), port], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        for i in range(2)
+    ]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [o[1][-2000:] for o in outs]
+    results = [json.loads(o[0].strip().splitlines()[-1]) for o in outs]
+    alone = subprocess.run([sys.executable, worker, "0", "0", "1"], capture_output=True, text=True, env=env, check=True)
+    ref = json.loads(alone.stdout.strip().splitlines()[-1])
+    assert results[0]["processes"] == 2 and results[0]["devices"] == 2 and ref["devices"] == 1
+    for r in results:
+        assert r["of"] == ref["of"] and r["params"] == ref["params"]

@@ -17,8 +17,8 @@ from .recording import Recording
 from .result import IdentificationResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
 from .space import Space, make_space
-from .strategies import Strategy, make_strategy, run
-from .strategies.base import FitnessFn, iteration_limit, run_active, run_output, run_start, run_steps
+from .strategies import Strategy, make_strategy
+from .strategies.base import FitnessFn, iteration_limit, run_batch
 from .strategies.memory import MEMORY_KINDS, physical_precision, unit_precision
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
@@ -81,45 +81,19 @@ PROGRESS = _ProgressSink()
 def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim, progress: bool = False):
     """All runs as one function of (keys, problems, space, precision, x0): data are arguments,
     not constants, so recordings of equal length (and other weights or bounds) reuse one
-    executable. With `progress`, each device advances its runs in `PROGRESS_CHUNKS` chunks of
-    iterations (an outer loop around the vmapped one) and reports the fraction done between
-    chunks; the results are the same bits (iteration `it` always uses `fold_in(key, it)`)."""
-
-    def one_run(key, problems, space, prec, x0):
-        fn = _fitness(space, problems, jw)
-        return run(strategy, key, fn, budget, dim, memory=memory, precision=prec, generations=generations, x0=x0)
-
-    if not progress:
-        return jax.jit(_per_device(jax.vmap(one_run, in_axes=(0, None, None, None, None)), mesh, 5))
+    executable. Each device runs its share of the runs with `run_batch`; with `progress` it
+    reports the fraction done `PROGRESS_CHUNKS` times (`jax.debug.callback`, same results)."""
     t_max = iteration_limit(strategy, budget, memory, generations)
 
-    def one_start(key, problems, space, prec, x0):
-        return run_start(strategy, key, _fitness(space, problems, jw), budget, dim, memory, prec, generations, None, x0)
-
-    def one_steps(carry, problems, space, until):
-        carry = run_steps(strategy, carry, _fitness(space, problems, jw), budget, t_max, until)
-        active = run_active(strategy, carry, budget, t_max)
-        done = jnp.maximum(carry.it / t_max, carry.state.fes / budget)  # memory: the budget may end a run first
-        return carry, jnp.where(active, jnp.minimum(done, 1.0), 1.0), active
-
     def device_runs(keys, problems, space, prec, x0):
-        device = jax.lax.axis_index("runs") if mesh is not None else 0
-        carry = jax.vmap(one_start, in_axes=(0, None, None, None, None))(keys, problems, space, prec, x0)
-
-        def cond(c):
-            chunk, _, active = c
-            return (chunk < PROGRESS_CHUNKS) & jnp.any(active)
-
-        def body(c):
-            chunk, carry, _ = c
-            until = ((chunk + 1) * t_max + PROGRESS_CHUNKS - 1) // PROGRESS_CHUNKS
-            carry, done, active = jax.vmap(one_steps, in_axes=(0, None, None, None))(carry, problems, space, until)
-            jax.debug.callback(PROGRESS.report, device, done)
-            return chunk + 1, carry, active
-
-        active = jnp.ones(keys.shape[0], bool)
-        _, carry, _ = jax.lax.while_loop(cond, body, (jnp.asarray(0), carry, active))
-        return jax.vmap(run_output)(carry)
+        report = None
+        if progress:
+            device = jax.lax.axis_index("runs") if mesh is not None else 0
+            report = lambda done: jax.debug.callback(PROGRESS.report, device, done)
+        return run_batch(
+            strategy, keys, _fitness(space, problems, jw), budget, dim, memory, prec, generations, x0,
+            report=report, report_every=max(1, -(-t_max // PROGRESS_CHUNKS)),
+        )  # fmt: skip
 
     return jax.jit(_per_device(device_runs, mesh, 5))
 

@@ -106,7 +106,8 @@ def test_forced_duplicate_is_not_simulated():
     for kind in MEMORY_KINDS:
         mem = Memory.create(kind, jnp.full(7, 1e-3), pop, fit, jnp.ones(70, bool), capacity=1000)
         state = State(pop, fit, pop[0], jnp.asarray(jnp.inf), jnp.asarray(70), None, jnp.asarray(0), mem)
-        z = pop + 1e-4  # within precision of its own record
+        # within precision of its own record (the hash's test is the same cell: an exact repeat)
+        z = pop + (0.0 if kind == "ltma-hash" else 1e-4)
         z = z.at[5].add(0.1)  # one real newcomer
         rows.clear()
         f, z_out, new = jax.jit(lambda z, s: evaluate(fn, z, s, 10_000))(z, state)
@@ -227,3 +228,36 @@ def test_cli_rejects_unknown_memory():
 
     with pytest.raises(SystemExit):
         main(["fit", "SD1", "--memory", "ltma"])
+
+
+def test_hash_memory_finds_the_same_cell_only():
+    from dcjax.strategies.memory import HashMemory
+
+    prec = jnp.full(7, 0.1)
+    rec = jnp.full((1, 7), 0.55)
+    m = HashMemory.create(prec, rec, jnp.asarray([3.0]), jnp.ones(1, bool), capacity=10)
+    same, other = jnp.full(7, 0.51), jnp.full(7, 0.55).at[3].set(0.61)  # same cell / next cell in one parameter
+    found, x, f, m = m.lookup(jnp.stack([same, other]))
+    assert found.tolist() == [True, False] and float(f[0]) == 3.0 and np.array_equal(x[0], rec[0])
+    # two new candidates of one cell in a batch: the first is stored, the second is not
+    m = m.add(jnp.stack([jnp.full(7, 0.21), jnp.full(7, 0.22)]), jnp.asarray([1.0, 2.0]), jnp.ones(2, bool))
+    assert int(m.n) == 2
+    found, _, f, _ = m.lookup(jnp.full((1, 7), 0.25))
+    assert bool(found[0]) and float(f[0]) == 1.0
+
+
+@pytest.mark.parametrize("memory", [None, "stma", "ltma-s2", "ltma-hash"])
+def test_run_batch_equals_separate_runs(sd1_fn, memory):
+    """`run_batch` (one loop over all runs, finished runs masked) gives each run's own result."""
+    from dcjax.strategies.base import run_batch
+
+    s = make_strategy("de-rand-1-exp")
+    keys = jax.random.split(jax.random.PRNGKey(7), 3)
+    prec = None if memory is None else PREC
+    kw = dict(memory=memory, precision=prec)  # with memory, runs end at different iterations (budget)
+    budgets = 2100
+    batch = jax.jit(lambda k: run_batch(s, k, sd1_fn, budgets, 7, **kw))(keys)
+    for r in range(3):
+        one = jax.jit(lambda k: run(s, k, sd1_fn, budgets, 7, **kw))(keys[r])
+        for field in ("best_x", "best_f", "fes", "iterations", "history", "dups"):
+            np.testing.assert_array_equal(getattr(batch, field)[r], getattr(one, field), err_msg=field)

@@ -33,7 +33,7 @@ from ..models import DC, Model
 from ..models.dc import TABLE29_PRECISION
 from ..space import Space, make_space
 
-MEMORY_KINDS = ("stma", "ltma-s1", "ltma-s2")
+MEMORY_KINDS = ("stma", "ltma-s1", "ltma-s2", "ltma-hash")
 
 # Table 29 (the paper's model), physical units, in `DC.names` order.
 TABLE29 = np.array([TABLE29_PRECISION[n] for n in DC.names])
@@ -98,6 +98,8 @@ class Memory(eqx.Module):
         members of the initial population appended."""
         if kind not in MEMORY_KINDS:
             raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {kind!r}")
+        if kind == "ltma-hash":
+            return HashMemory.create(precision, pop, fit, evaluated, capacity)  # pyright: ignore[reportReturnType]
         precision = jnp.asarray(precision, pop.dtype)
         zero = jnp.asarray(0)
         if kind == "stma":
@@ -157,3 +159,113 @@ class Memory(eqx.Module):
         if self.kind != "stma":
             return self
         return eqx.tree_at(lambda m: (m.x, m.f), self, (pop, fit))
+
+
+# Odd 64-bit multipliers for the hash of a quantized vector (one per coordinate, cycled).
+_HASH_MULTIPLIERS = np.array(
+    [
+        0x9E3779B97F4A7C15,
+        0xC2B2AE3D27D4EB4F,
+        0x165667B19E3779F9,
+        0xD6E8FEB86659FD93,
+        0xFF51AFD7ED558CCD,
+        0xC4CEB9FE1A85EC53,
+        0x94D049BB133111EB,
+        0xBF58476D1CE4E5B9,
+    ],
+    dtype=np.uint64,
+)
+
+
+class HashMemory(eqx.Module):
+    """LTMA with an index (`"ltma-hash"`): every parameter is quantized at its precision,
+    q = floor(z / precision), and a candidate is a duplicate when a stored record has the same q
+    (the same cell of the precision grid) — an O(1) look-up in an open-addressing hash table
+    instead of the paper's linear search over the history (Fig. 24). Each cell holds at most one
+    record (a later candidate in it is a duplicate, so it is never stored), so the search order
+    that distinguishes S1 from S2 has nothing to choose between.
+
+    The cell test differs from the paper's |z - x| < precision box: a candidate just across a cell
+    border from a record is not a duplicate, and one up to one precision away inside a cell is.
+    Records that find no free slot within `PROBES` probes are dropped (the table is at least
+    twice the capacity, so this is rare); zero precision in any parameter finds no duplicates."""
+
+    keys: Int[Array, "T D"]
+    x: Float[Array, "T D"]
+    f: Float[Array, " T"]
+    used: Bool[Array, " T"]
+    n: Int[Array, ""]
+    precision: Float[Array, " D"]
+    chunks: Int[Array, ""]  # look-ups made (search work)
+    kind: str = eqx.field(static=True, default="ltma-hash")
+
+    PROBES = 8
+
+    @staticmethod
+    def create(precision, pop, fit, evaluated, capacity: int) -> "HashMemory":
+        size = 1 << int(np.ceil(np.log2(max(2 * int(capacity), 16))))
+        d = pop.shape[1]
+        precision = jnp.asarray(precision, pop.dtype)
+        empty = HashMemory(
+            jnp.zeros((size, d), jnp.int64),
+            jnp.zeros((size, d), pop.dtype),
+            jnp.zeros(size, fit.dtype),
+            jnp.zeros(size, bool),
+            jnp.asarray(0),
+            precision,
+            jnp.asarray(0),
+        )
+        return empty.add(pop, fit, evaluated)
+
+    def _quantize(self, z):
+        p = jnp.where(jnp.isfinite(self.precision) & (self.precision > 0), self.precision, 1.0)
+        q = jnp.floor(z / p).astype(jnp.int64)
+        return jnp.where(jnp.isfinite(self.precision), q, 0)  # a fixed parameter: one cell
+
+    def _slots(self, q):
+        mult = jnp.asarray(np.resize(_HASH_MULTIPLIERS, q.shape[-1]))
+        h = jnp.sum(q.astype(jnp.uint64) * mult, axis=-1)
+        h = h ^ (h >> 29)
+        size = self.used.shape[0]
+        return ((h[..., None] + jnp.arange(self.PROBES, dtype=jnp.uint64)) & jnp.uint64(size - 1)).astype(jnp.int64)
+
+    def lookup(self, z):
+        """(found, record x, record OF, memory) for each candidate (see `Memory.lookup`)."""
+        q = self._quantize(z)
+        slots = self._slots(q)  # (P, probes)
+        hit = self.used[slots] & jnp.all(self.keys[slots] == q[:, None, :], axis=-1)
+        hit = hit & jnp.all(self.precision > 0)
+        found = jnp.any(hit, axis=1)
+        slot = jnp.take_along_axis(slots, jnp.argmax(hit, axis=1)[:, None], axis=1)[:, 0]
+        return found, self.x[slot], self.f[slot], eqx.tree_at(lambda m: m.chunks, self, self.chunks + 1)
+
+    def add(self, z, f, new):
+        """Store the rows of `z`, `f` where `new`, each in the first free slot of its probes (one
+        vectorized scatter per batch). A row whose cell is already stored, or whose slot an earlier
+        row of the same batch also takes, is not stored (two new candidates of one cell in a batch
+        keep the first; a rare collision of different cells drops the later one)."""
+        q = self._quantize(z)
+        slots = self._slots(q)  # (P, probes)
+        present = jnp.any(self.used[slots] & jnp.all(self.keys[slots] == q[:, None, :], axis=-1), axis=1)
+        free = ~self.used[slots]
+        k = jnp.take_along_axis(slots, jnp.argmax(free, axis=1)[:, None], axis=1)[:, 0]
+        ok = new & ~present & jnp.any(free, axis=1)
+        rows = jnp.arange(z.shape[0])
+        earlier = (k[None, :] == k[:, None]) & ok[None, :] & (rows[None, :] < rows[:, None])
+        ok = ok & ~jnp.any(earlier, axis=1)
+        size = self.used.shape[0]
+        k = jnp.where(ok, k, size)  # out of range: dropped by the scatter
+        return eqx.tree_at(
+            lambda m: (m.keys, m.x, m.f, m.used, m.n),
+            self,
+            (
+                self.keys.at[k].set(q, mode="drop"),
+                self.x.at[k].set(z, mode="drop"),
+                self.f.at[k].set(f, mode="drop"),
+                self.used.at[k].set(True, mode="drop"),
+                self.n + jnp.sum(ok),
+            ),
+        )
+
+    def refresh(self, pop, fit):
+        return self

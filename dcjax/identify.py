@@ -67,12 +67,15 @@ class _ProgressSink:
 
     def __init__(self):
         self.target = None
+        self.total = 1
         self.done: dict[int, np.ndarray] = {}
 
     def report(self, device, done):
-        self.done[int(device)] = np.asarray(done)
-        if self.target is not None:
-            self.target(float(np.mean(np.concatenate([self.done[d] for d in sorted(self.done)]))))
+        # unordered callbacks: keep the furthest state seen of every run
+        old = self.done.get(int(device))
+        self.done[int(device)] = np.asarray(done) if old is None else np.maximum(old, done)
+        if self.target is not None:  # runs of devices not heard from yet count as not started
+            self.target(float(sum(np.sum(d) for d in self.done.values()) / self.total))
 
 
 PROGRESS = _ProgressSink()
@@ -248,9 +251,12 @@ def identify(
         if show
         else None
     )
-    PROGRESS.target, PROGRESS.done = report, {}
+    PROGRESS.target, PROGRESS.done, PROGRESS.total = report, {}, int(keys.shape[0])
     try:
         out = jax.block_until_ready(compiled(*args))
+        jax.effects_barrier()
+        if report is not None:
+            report(1.0)
     finally:
         PROGRESS.target = None
         if show and not callable(progress):

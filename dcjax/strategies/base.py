@@ -276,8 +276,8 @@ def run_batch(
     loop stops when no run is active and a finished run's carry is kept by selecting only its
     small leaves. (Under `vmap`, a `while_loop` whose predicate differs between runs selects the
     whole carry every iteration — for LTMA a table of ~10^5 records per run, which made LTMA
-    5-160x slower than no memory.) With `report`, `jax.debug.callback(report, done)` is called
-    every `report_every` iterations with each run's fraction done."""
+    5-160x slower than no memory.) With `report`, `report(done)` is traced every `report_every`
+    iterations with each run's fraction done (a callback's calls may arrive out of order)."""
     t_max = iteration_limit(strategy, budget, memory, generations)
     carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, memory, precision, generations, None, x0))(keys)
     n_runs = keys.shape[0]
@@ -298,13 +298,12 @@ def run_batch(
         go = active(c)
         c = masked(go, jax.vmap(lambda c: run_iteration(strategy, c, fn, budget))(c), c)
         if report is not None:
+            send = report
             done = jnp.where(active(c), jnp.minimum(jnp.maximum(c.it / t_max, c.state.fes / budget), 1.0), 1.0)
-            jax.lax.cond((i + 1) % report_every == 0, lambda: jax.debug.callback(report, done), lambda: None)
+            jax.lax.cond((i + 1) % report_every == 0, lambda: send(done), lambda: None)
         return i + 1, c
 
     _, carry = jax.lax.while_loop(lambda loop: jnp.any(active(loop[1])), body, (jnp.asarray(0), carry))
-    if report is not None:
-        jax.debug.callback(report, jnp.ones(n_runs))
     return jax.vmap(run_output)(carry)
 
 

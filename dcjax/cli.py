@@ -79,7 +79,12 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--x0", default=None, help="start values seeding the initial population, e.g. Ra=40,J=2e-5")
     f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
     f.add_argument("--uncertainty", action="store_true", help="standard errors, 95%% intervals and identifiability")
-    f.add_argument("--memory", default=None, choices=["stma", "ltma-s1", "ltma-s2", "ltma-hash"], help="memory assistance (Section 4.4; ltma-hash: indexed)")
+    f.add_argument(
+        "--memory",
+        default=None,
+        choices=["stma", "ltma-s1", "ltma-s2", "ltma-hash"],
+        help="memory assistance (Section 4.4; ltma-hash: indexed)",
+    )
     f.add_argument("--precision", default=None, help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)")
     f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")

@@ -177,7 +177,7 @@ def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
     """Chunked runs (progress) give the same bits as one compiled run, memory or not; the CLI's
     --progress draws a bar on stderr."""
     for memory in (None, "stma"):
-        kw = dict(runs=3, budget=7000, seed=4, memory=memory)
+        kw = dict(runs=3, budget=2800, seed=4, memory=memory)
         seen = []
         a, b = identify(sd1, **kw), identify(sd1, progress=seen.append, **kw)
         for f in ("run_of", "run_params", "fes", "iterations"):

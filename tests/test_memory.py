@@ -255,7 +255,7 @@ def test_run_batch_equals_separate_runs(sd1_fn, memory):
     keys = jax.random.split(jax.random.PRNGKey(7), 3)
     prec = None if memory is None else PREC
     kw = dict(memory=memory, precision=prec)  # with memory, runs end at different iterations (budget)
-    budgets = 2100
+    budgets = 1050
     batch = jax.jit(lambda k: run_batch(s, k, sd1_fn, budgets, 7, **kw))(keys)
     for r in range(3):
         one = jax.jit(lambda k: run(s, k, sd1_fn, budgets, 7, **kw))(keys[r])

@@ -179,9 +179,9 @@ def identify(
 
     `memory` (Section 4.4): `None`, `"stma"`, `"ltma-s1"` or `"ltma-s2"`; a candidate within
     `precision` (physical units, default the model's: Table 29, see `dcjax.strategies.memory`)
-    of a record is not simulated and costs no FE, so the budget lasts longer; `generations` caps
-    the iterations (the paper's Tables 30–33 compare equal iteration counts: 1999 DE steps after
-    the initial population = 70 x 2000 candidates).
+    of a record is not simulated and costs no FE. A run makes as many iterations as without
+    memory (`generations` overrides): the paper's Tables 30–33 compare equal iteration counts,
+    1999 DE steps after the initial population = 70 x 2000 candidates.
 
     `progress`: `True` shows a tqdm bar of the iterations done (over all runs), a callable is
     called with the fraction done (0..1), `PROGRESS_CHUNKS` times during the run, from inside the

@@ -2,8 +2,8 @@
 50 and 1000 runs; fleets of simulated motors; and one population objective evaluation by the
 Pallas kernel against the `lax.scan`. Prints a table naming the device.
 
-    python experiments/bench_gpu.py                      # the issue's sizes (meant for a GPU)
-    python experiments/bench_gpu.py --runs 1 50 --motors 20 --populations 70   # a CPU-sized run
+    python -m experiments.bench_gpu                      # the issue's sizes (meant for a GPU)
+    python -m experiments.bench_gpu --runs 1 50 --motors 20 --populations 70   # a CPU-sized run
 
 On CPU the kernel exists only in interpret mode (a correctness tool, not a speed path), so the
 kernel row is skipped there."""

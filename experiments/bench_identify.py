@@ -1,8 +1,8 @@
 """Benchmark (issue 3, paper Table 19): run times of the evolutionary methods on SD1 with RK4,
 NP = 70, 140,000 FEs, and scipy's differential_evolution on the same objective in NumPy.
 
-    .venv/bin/python experiments/bench_identify.py            # everything (~4 min on 2 cores)
-    .venv/bin/python experiments/bench_identify.py --skip-scipy
+    .venv/bin/python -m experiments.bench_identify            # everything (~4 min on 2 cores)
+    .venv/bin/python -m experiments.bench_identify --skip-scipy
 
 Each section runs in a fresh subprocess with the XLA CPU device count it states, because the
 device count is fixed when JAX starts: one device is fastest for a single run, two devices

@@ -1,10 +1,9 @@
 """Memory assistance run times (issue 15): MD1, RK4, ND = 5, Table 8, current limit 11.44 A, 2 runs,
-DE/rand/1/exp, for no memory, STMA, LTMA-S2 (linear search) and LTMA with the hash index, at
-equal iterations (`--generations 1999`, the paper's Time % convention) or with the CLI's default
-(memory runs go on while the budget lasts, up to 20x the iterations). Run times exclude
+DE/rand/1/exp, for no memory, STMA, LTMA with the hash index and the paper's linear LTMA-S2 and
+LTMA-S1, at the paper's 2000 iterations (the default with or without memory). Run times exclude
 compilation (every executable is compiled before the timed call).
 
-    python experiments/bench_ltma.py [--generations 1999 | --generations 0]   (0: the CLI default)"""
+    python -m experiments.bench_ltma [--runs 2] [--kinds none stma ltma-hash ltma-s2 ltma-s1]"""
 
 import argparse
 
@@ -17,15 +16,14 @@ from dcjax import datasets, identify  # noqa: E402
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--generations", type=int, default=1999)
-    ap.add_argument("--kinds", nargs="*", default=["none", "stma", "ltma-hash", "ltma-s2"])
+    ap.add_argument("--runs", type=int, default=2)
+    ap.add_argument("--kinds", nargs="*", default=["none", "stma", "ltma-hash", "ltma-s2", "ltma-s1"])
     args = ap.parse_args()
     rec = datasets.load("MD1")
-    gens = args.generations or None
     base = None
     for kind in args.kinds:
         mem = None if kind == "none" else kind
-        kw = dict(runs=2, nd=5, bounds="table8", i_limit=11.44, memory=mem, generations=gens)
+        kw = dict(runs=args.runs, nd=5, bounds="table8", i_limit=11.44, memory=mem)
         identify(rec, **kw)
         r = identify(rec, **kw)
         base = base or r.timing["run_s"]

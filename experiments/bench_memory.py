@@ -4,7 +4,7 @@ full population `fn(z)` (what a masked lane costs), on MD1 with RK and RK10, for
 and for a batch of 25 runs (one device's share of 50), where compaction spans the runs.
 Also the memory look-up itself: STMA (70 records) and LTMA (10,000 and 30,000 records, full scan).
 
-    .venv/bin/python experiments/bench_memory.py
+    .venv/bin/python -m experiments.bench_memory
 """
 
 import time

@@ -2,7 +2,7 @@
 50 runs, one CPU device per core) with and without `progress` (`PROGRESS_CHUNKS` chunks), alternated, run times
 only (compilation excluded; every executable is compiled before the timed calls).
 
-    .venv/bin/python -m experiments.bench_progress   (or python experiments/bench_progress.py)"""
+    .venv/bin/python -m experiments.bench_progress"""
 
 import statistics
 

@@ -2,7 +2,7 @@
 populations of 70 (2000 calls), JAX against the straightforward NumPy implementation
 (`dcjax.reference`), measured in the same process.
 
-    .venv/bin/python experiments/bench_simulate.py [--numpy-calls 2000]
+    .venv/bin/python -m experiments.bench_simulate [--numpy-calls 2000]
 """
 
 import argparse

@@ -2,7 +2,7 @@
 throughput. Motors: parameters drawn uniformly within +-40 % of SD1 (inside Table 4), 220 V step
 responses of 501 samples (0.05 s, as SD1). DE/rand/1/exp, RK4, NP = 70, one run per motor.
 
-    .venv/bin/python experiments/fleet.py [--motors 1000] [--budget 140000]
+    .venv/bin/python -m experiments.fleet [--motors 1000] [--budget 140000]
 """
 
 import argparse

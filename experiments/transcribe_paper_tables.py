@@ -146,6 +146,21 @@ out["table18"] = {
     "max_u_dev_pct": {"MD1": 1.9, "MD2": 2.7, "MD3": 1.1, "MD4": 1.1},
     "max_i_dev_pct": {"MD1": 8.1, "MD2": 13.0, "MD3": 13.1, "MD4": 1.9},
 }
+# Table 7: the conditions of MD1–MD4 (the measurement step, 0.132 s, is in the text below it).
+t7 = L.index(next(x for x in L if x.startswith("Table 7.")))
+rows7 = {r.split("\t")[0].split(" ")[0]: [c for c in r.split("\t")[1:] if c.strip()] for r in L[t7 - 6 : t7 - 1]}
+out["table7"] = {
+    "columns": ["MD1", "MD2", "MD3", "MD4"],
+    "t_speed_up": [float(c) for c in rows7["t"]],
+    "omega_final": [float(c) for c in rows7["ω_{final}"]],
+    "i_a_limit": [float(c.split(" ")[0]) for c in rows7["i"]],
+    "points": [int(c) for c in rows7["Number"]],
+    "dt_sample": float(re.search(r"time step was ([\d.]+) s", L[t7 + 2]).group(1)),
+}
+# Fig. 12 (Section 4.2.6): the text gives the MD1 row, own fit then R_MD2 and R_MD3.
+sec = "\n".join(L[L.index(next(x for x in L if x.startswith("4.2.6."))) :][:20])
+fig12 = [float(a) * 1e-3 for a in re.findall(r"OF = ([\d.]+)\s*×\s*10(?:\^\{-3\}|⁻³)", sec)]
+out["fig12"] = {"data": "MD1", "columns": ["R_MD1", "R_MD2", "R_MD3"], "OF": fig12}
 out["known"] = {"Ra": 5.66, "J": 0.04, "Tla": 0.9, "Tlb_MD4": 0.075}
 out["notes"]["table10"] = "DE/best/1/bin OF SD prints as 28456e-4 (a lost decimal point); 2.8456e-4 used."
 out["table10"]["OF_SD"][2] = 2.8456e-4

@@ -9,33 +9,43 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from experiments.cells import Cell, Store, recording
+from experiments.report import without_times
+
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "experiments"))
-
-from cells import Cell, Store  # noqa: E402
-from report import without_times  # noqa: E402
 
 
-def test_store_ignores_torn_lines_and_unfinished_cells(tmp_path):
+def test_store_ignores_torn_lines(tmp_path):
     s = Store(tmp_path / "s.jsonl")
     a, b = Cell("SD1", runs=2), Cell("SD2", runs=2)
-    run = lambda c, k: {"key": c.key, "run": k, "of": float(k)}
-    s.append([run(a, 0), run(a, 1), {"key": a.key, "complete": True, "runs": 2, "run_s": 1.0, "compile_s": 0.0}])
-    s.append([run(b, 0)])  # killed before its second run and completion line
+    line = lambda c: {"key": c.key, "of": [0.0, 1.0], "params": [[0.0] * 7] * 2, "run_s": 1.0, "compile_s": 0.0}
+    s.append(line(a))
     with open(s.path, "a") as f:
-        f.write('{"key": "torn li')  # killed mid-write
-    assert list(s.cells()) == [a.key]  # b unfinished, the torn line ignored
-    s.append([run(b, 0), run(b, 1), {"key": b.key, "complete": True, "runs": 2, "run_s": 1.0, "compile_s": 0.0}])  # the redo
-    cells = s.cells()
-    assert [r["of"] for r in cells[a.key]["runs"]] == [0.0, 1.0]
-    assert [r["run"] for r in cells[b.key]["runs"]] == [0, 1]
+        f.write('{"key": "torn li')  # killed mid-write of b's line
+    assert list(s.cells()) == [a.key]
+    s.append(line(b))  # the redo starts on a fresh line
+    s.append({"event": "reproduce", "cells_planned": 2, "cells_computed": 1})
+    assert list(s.cells()) == [a.key, b.key] and s.cells()[a.key]["of"] == [0.0, 1.0]
+    assert [e["cells_computed"] for e in s.events()] == [1]
+
+
+def test_lab_ablation_case_regenerates_the_data_file():
+    for name in ("MD1", "MD4"):
+        a, b = recording(name), recording(name, "lab")
+        assert np.array_equal(a.t, b.t) and np.array_equal(a.i_a, b.i_a) and np.array_equal(a.omega, b.omega)
+        fast = recording(name, "clean-sampling-11x")  # holds every original sample instant
+        assert np.isin(np.round(a.t, 9), np.round(fast.t, 9)).all() and len(fast.t) > 10 * len(a.t)
+    with pytest.raises(ValueError, match="unknown ablation case"):
+        recording("MD1", "windy")
 
 
 def _plan(overrides):
     from hydra import compose, initialize_config_dir
-    from reproduce import plan
+
+    from experiments.reproduce import plan
 
     with initialize_config_dir(config_dir=str(ROOT / "experiments" / "conf"), version_base="1.3"):
         return plan(compose(config_name="reproduce", overrides=overrides))
@@ -44,13 +54,18 @@ def _plan(overrides):
 def test_full_plan_has_the_papers_grid():
     cells = _plan([])
     by = lambda **kw: [c for c in cells if all(getattr(c, k) == v for k, v in kw.items())]
-    assert len(by(data="SD1", memory=None)) == 5 and all(c.runs == 50 and c.budget == 140_000 for c in by(data="SD3"))
-    assert len([c for c in cells if c.data.startswith("SD")]) == 20  # Table 5: 4 x 5
+    assert len(by(data="SD1", memory=None, bounds_rule="", init_rule="")) == 5 and all(
+        c.runs == 50 and c.budget == 140_000 for c in by(data="SD3")
+    )
+    assert len([c for c in cells if c.data.startswith("SD") and not (c.bounds_rule or c.init_rule)]) == 20  # Table 5: 4 x 5
     assert len(by(data="MD2", memory=None, generations=None, runs=50, w1=1.0)) == 5 * 2 + 4  # Tables 11-12 + EM5..RK10
     assert len([c for c in by(data="MD4") if c.w1 != 1.0]) == 9  # Table 23
     mem = [c for c in cells if c.memory]
-    assert len(mem) == 4 * 6 * 3 and {c.generations for c in mem} == {1999}  # Tables 30-33
-    assert all(c.runs == 50 for c in mem if c.memory == "stma")
+    assert len(mem) == 4 * 6 * 2 and {c.generations for c in mem} == {1999}  # Tables 30-33: STMA, LTMA (index)
+    assert all(c.runs == 50 for c in mem)
+    assert len([c for c in cells if c.bounds_rule or c.init_rule]) == 5  # 3 rules x 2 inits, the default in Table 5
+    assert {c.case for c in cells if c.case} >= {"clean", "lab", "noise", "armature", "static"}
+    assert any(c.fixed == "Tlc=0" for c in cells) and any(c.data == "MD1+MD2+MD3" and c.polish for c in cells)
     assert len(cells) == len(set(cells))
 
 
@@ -62,7 +77,8 @@ def test_unknown_suite_is_an_error():
 def _reproduce(tmp, *extra, wait=True):
     cmd = [
         sys.executable,
-        str(ROOT / "experiments" / "reproduce.py"),
+        "-m",
+        "experiments.reproduce",
         "profile=smoke",
         f"store={tmp}/store.jsonl",
         f"report={tmp}/REPORT.md",
@@ -79,11 +95,21 @@ def test_smoke_profile_end_to_end(tmp_path):
     out = _reproduce(tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]
     text = (tmp_path / "REPORT.md").read_text()
-    for heading in ("Tables 5 and 6", "Tables 9–17", "Tables 20–23", "Tables 24–28", "Tables 30–33"):
+    for heading in ("Tables 5 and 6", "Tables 9–17", "Tables 20–23", "Tables 24–28", "Tables 30–33", "ablation", "Bound handling"):
         assert heading in text
-    assert text.count("**Verdict") >= 6 and (tmp_path / "figures" / "fig25_memory_times.png").is_file()
-    again = _reproduce(tmp_path)  # everything is in the store: nothing recomputed, same report
-    assert "computed 0 cells" in again.stdout and (tmp_path / "REPORT.md").read_text() == text
+    assert text.count("**Verdict") >= 15 and (tmp_path / "figures" / "fig25_memory_times.png").is_file()
+    assert "One uninterrupted run" in text
+    regenerated = subprocess.run(
+        [sys.executable, "-m", "experiments.report", "--store", f"{tmp_path}/store.jsonl", "--profile", "smoke"]
+        + ["--out", f"{tmp_path}/R2.md", "--figures", f"{tmp_path}/figures"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert regenerated.returncode == 0, regenerated.stderr[-2000:]
+    assert (tmp_path / "R2.md").read_text() == text  # the report is a function of the store, byte for byte
+    again = _reproduce(tmp_path)  # everything is in the store: nothing recomputed, same report up to the new event
+    assert "computed 0 cells" in again.stdout and without_times((tmp_path / "REPORT.md").read_text()) == without_times(text)
 
 
 SMALL = "suites=[table5]"  # two cells (DE/rand/1/exp and TLBO on SD1): enough to stop between and inside cells
@@ -110,6 +136,8 @@ def test_interrupted_reproduction_resumes_to_the_same_report(tmp_path, sig, unin
     assert done == 1, "the kill should land inside the second cell"
     resumed = _reproduce(tmp_path, SMALL)
     assert resumed.returncode == 0 and "1 already in" in resumed.stdout and "computed 1 cells" in resumed.stdout
-    assert without_times((tmp_path / "REPORT.md").read_text()) == without_times((uninterrupted / "REPORT.md").read_text())
+    text = (tmp_path / "REPORT.md").read_text()
+    assert without_times(text) == without_times((uninterrupted / "REPORT.md").read_text())
+    assert "not one uninterrupted run" in text  # the report says the store took two invocations
     lines = (tmp_path / "store.jsonl").read_text().splitlines()
-    assert sum(1 for x in lines if x.startswith("{") and json.loads(x).get("complete")) == 2
+    assert sum(1 for x in lines if x.startswith("{") and "of" in json.loads(x)) == 2

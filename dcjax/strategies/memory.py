@@ -191,8 +191,7 @@ class HashMemory(eqx.Module):
     twice the capacity, so this is rare); zero precision in any parameter finds no duplicates."""
 
     keys: Int[Array, "T D"]
-    x: Float[Array, "T D"]
-    f: Float[Array, " T"]
+    xf: Float[Array, "T D+1"]  # record x and, in the last column, its OF (one table: one scatter)
     used: Bool[Array, " T"]
     n: Int[Array, ""]
     precision: Float[Array, " D"]
@@ -208,8 +207,7 @@ class HashMemory(eqx.Module):
         precision = jnp.asarray(precision, pop.dtype)
         empty = HashMemory(
             jnp.zeros((size, d), jnp.int64),
-            jnp.zeros((size, d), pop.dtype),
-            jnp.zeros(size, fit.dtype),
+            jnp.zeros((size, d + 1), pop.dtype),
             jnp.zeros(size, bool),
             jnp.asarray(0),
             precision,
@@ -237,7 +235,8 @@ class HashMemory(eqx.Module):
         hit = hit & jnp.all(self.precision > 0)
         found = jnp.any(hit, axis=1)
         slot = jnp.take_along_axis(slots, jnp.argmax(hit, axis=1)[:, None], axis=1)[:, 0]
-        return found, self.x[slot], self.f[slot], eqx.tree_at(lambda m: m.chunks, self, self.chunks + 1)
+        rec = self.xf[slot]
+        return found, rec[:, :-1], rec[:, -1], eqx.tree_at(lambda m: m.chunks, self, self.chunks + 1)
 
     def add(self, z, f, new):
         """Store the rows of `z`, `f` where `new`, each in the first free slot of its probes (one
@@ -256,12 +255,11 @@ class HashMemory(eqx.Module):
         size = self.used.shape[0]
         k = jnp.where(ok, k, size)  # out of range: dropped by the scatter
         return eqx.tree_at(
-            lambda m: (m.keys, m.x, m.f, m.used, m.n),
+            lambda m: (m.keys, m.xf, m.used, m.n),
             self,
             (
                 self.keys.at[k].set(q, mode="drop"),
-                self.x.at[k].set(z, mode="drop"),
-                self.f.at[k].set(f, mode="drop"),
+                self.xf.at[k].set(jnp.concatenate([z, f[:, None]], axis=1), mode="drop"),
                 self.used.at[k].set(True, mode="drop"),
                 self.n + jnp.sum(ok),
             ),

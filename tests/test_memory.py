@@ -174,11 +174,15 @@ def test_memory_never_changes_a_returned_of(sd1_fn, memory):
     assert float(out.best_f) == pytest.approx(f, rel=1e-13)
 
 
-def test_budget_lasts_longer_with_memory(sd1_fn):
-    off = _run(sd1_fn, None, budget=7000)
-    on = _run(sd1_fn, "stma", budget=7000)
-    assert int(on.fes) <= 7000 and int(on.iterations) > int(off.iterations)
-    assert int(on.iterations) * 70 + 70 - int(on.dups) == int(on.fes)  # every candidate: FE or duplicate
+def test_memory_keeps_the_iteration_count_and_saves_fes(sd1_fn):
+    """Paper Section 4.4: with memory a run makes the memory-free run's iterations, duplicates cost
+    no FEs; with `generations` above that count the saved FEs buy more iterations within the budget."""
+    off = _run(sd1_fn, None, budget=14_000)
+    on = _run(sd1_fn, "stma", budget=14_000)
+    assert int(on.iterations) == int(off.iterations) == 199 and int(on.dups) > 0
+    assert int(on.fes) == 14_000 - int(on.dups)  # every candidate: FE or duplicate
+    longer = _run(sd1_fn, "stma", budget=14_000, generations=400)
+    assert int(longer.iterations) > 199 and int(longer.fes) <= 14_000
 
 
 def test_identify_with_memory(sd1):

@@ -184,9 +184,6 @@ class RunOutput(eqx.Module):
     chunks: Int[Array, ""]
 
 
-MEMORY_ITERATION_FACTOR = 20
-
-
 class RunCarry(eqx.Module):
     """A run between iterations: the strategy's state, the iteration count, the best OF after
     each iteration so far and the key of the iterations."""
@@ -198,10 +195,13 @@ class RunCarry(eqx.Module):
 
 
 def iteration_limit(strategy: Strategy, budget: int, memory: str | None = None, generations: int | None = None) -> int:
-    """The most iterations a run makes (see `run`)."""
+    """The most iterations a run makes (see `run`): `generations`, else the memory-free run's
+    count for the budget, with or without memory (paper Section 4.4: 2000 iterations either way;
+    a duplicate saves its simulation, it does not buy more iterations)."""
+    del memory
     if generations is not None:
         return int(generations)
-    return max(1, strategy.max_iterations(budget)) * (1 if memory is None else MEMORY_ITERATION_FACTOR)
+    return max(1, strategy.max_iterations(budget))
 
 
 def run_start(
@@ -330,8 +330,8 @@ def run(
     `generations`, at most that many iterations.
 
     `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`; see `Memory`) with `precision` in unit-cube
-    units. Duplicates cost no FEs, so a budget lasts longer: without `generations` a run with
-    memory stops at the budget or at `MEMORY_ITERATION_FACTOR` x the memory-free iteration count.
+    units. Duplicates cost no FEs and are not simulated; without `generations` a run with memory
+    makes the memory-free run's iterations (the paper's Time % and Dupl. % compare equal counts).
     The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
     initial population (see `Strategy.init`). The same run in pieces: `run_start`, `run_steps`
     (with `until`), `run_output`."""

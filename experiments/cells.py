@@ -106,11 +106,6 @@ def recordings(cell: Cell) -> list:
     return [recording(d, cell.case) for d in cell.data.split("+")]
 
 
-def true_params(cell_or_name, case: str = "") -> dict[str, float]:
-    name = cell_or_name.data.split("+")[0] if isinstance(cell_or_name, Cell) else cell_or_name
-    return dict(recording(name, case).metadata["true_params"])
-
-
 def method_for(cell: Cell):
     if not (cell.bounds_rule or cell.init_rule):
         return cell.method

@@ -86,7 +86,7 @@ def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim, progress
     not constants, so recordings of equal length (and other weights or bounds) reuse one
     executable. Each device runs its share of the runs with `run_batch`; with `progress` it
     reports the fraction done `PROGRESS_CHUNKS` times (`jax.debug.callback`, same results)."""
-    t_max = iteration_limit(strategy, budget, memory, generations)
+    t_max = iteration_limit(strategy, budget, generations)
 
     def device_runs(keys, problems, space, prec, x0):
         report = None
@@ -246,11 +246,7 @@ def identify(
         (*cache_key, show), lambda: _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh, space.dim, show), args
     )
     t1 = time.perf_counter()
-    report = (
-        (progress if callable(progress) else _tqdm_progress(runs * iteration_limit(strategy, budget, memory, generations)))
-        if show
-        else None
-    )
+    report = (progress if callable(progress) else _tqdm_progress(runs * iteration_limit(strategy, budget, generations))) if show else None
     PROGRESS.target, PROGRESS.done, PROGRESS.total = report, {}, int(keys.shape[0])
     try:
         out = jax.block_until_ready(compiled(*args))

@@ -194,11 +194,10 @@ class RunCarry(eqx.Module):
     key: PRNGKeyArray
 
 
-def iteration_limit(strategy: Strategy, budget: int, memory: str | None = None, generations: int | None = None) -> int:
+def iteration_limit(strategy: Strategy, budget: int, generations: int | None = None) -> int:
     """The most iterations a run makes (see `run`): `generations`, else the memory-free run's
     count for the budget, with or without memory (paper Section 4.4: 2000 iterations either way;
     a duplicate saves its simulation, it does not buy more iterations)."""
-    del memory
     if generations is not None:
         return int(generations)
     return max(1, strategy.max_iterations(budget))
@@ -217,7 +216,7 @@ def run_start(
     x0: Float[Array, "K D"] | None = None,
 ) -> RunCarry:
     """The evaluated initial population (and memory) of a run; see `run`."""
-    t_max = iteration_limit(strategy, budget, memory, generations)
+    t_max = iteration_limit(strategy, budget, generations)
     k_init, k_run = jax.random.split(key)
     state = with_best(strategy.init(k_init, fn, budget, dim, x0))
     if memory is not None:
@@ -278,7 +277,7 @@ def run_batch(
     whole carry every iteration — for LTMA a table of ~10^5 records per run, which made LTMA
     5-160x slower than no memory.) With `report`, `report(done)` is traced every `report_every`
     iterations with each run's fraction done (a callback's calls may arrive out of order)."""
-    t_max = iteration_limit(strategy, budget, memory, generations)
+    t_max = iteration_limit(strategy, budget, generations)
     carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, memory, precision, generations, None, x0))(keys)
     n_runs = keys.shape[0]
 
@@ -329,12 +328,12 @@ def run(
     """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
     `generations`, at most that many iterations.
 
-    `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`; see `Memory`) with `precision` in unit-cube
+    `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`, `"ltma-hash"`; see `Memory`) with `precision` in unit-cube
     units. Duplicates cost no FEs and are not simulated; without `generations` a run with memory
     makes the memory-free run's iterations (the paper's Time % and Dupl. % compare equal counts).
     The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
     initial population (see `Strategy.init`). The same run in pieces: `run_start`, `run_steps`
     (with `until`), `run_output`."""
-    t_max = iteration_limit(strategy, budget, memory, generations)
+    t_max = iteration_limit(strategy, budget, generations)
     carry = run_start(strategy, key, fn, budget, dim, memory, precision, generations, capacity, x0)
     return run_output(run_steps(strategy, carry, fn, budget, t_max))

@@ -166,11 +166,15 @@ def test_repeated_identify_does_not_accumulate_memory_mappings(sd1):
     def maps():
         return sum(1 for _ in open("/proc/self/maps"))
 
+    cache = sys.modules["dcjax.identify"].EXECUTABLES
+    cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
+    methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
     counts = []
-    for k, method in enumerate(["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin", "de-rand-1-exp", "tlbo", "abc"]):
-        identify(sd1, method=method, runs=1, budget=140, seed=k, pop_size=70 - (k >= 5))  # 8 distinct executables
+    for k in range(cache.size + 4):  # distinct executables: the cache fills, then evicts
+        identify(sd1, method=methods[k % 5], runs=1, budget=140, seed=k, pop_size=70 - k // 5)
         counts.append(maps())
-    assert counts[-1] - counts[3] < 600, counts  # were the executables kept: ~450 more per call
+    full = cache.size - 1
+    assert counts[-1] - counts[full] < 600, counts  # were the executables kept: ~450 more per call
 
 
 def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):

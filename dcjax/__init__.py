@@ -7,7 +7,8 @@ Response", Mathematics 2020, 8, 1269, for the paper's model and for any model wr
 
 Importing dcjax enables ``jax_enable_x64``: the paper's best objective values are ~1e-19,
 which float32 cannot resolve. It changes nothing else: for one CPU device per core (independent
-runs sharded over the cores), call ``dcjax.use_host_devices()`` before any JAX computation.
+runs sharded over the cores) and time loops compiled as one function, call
+``dcjax.use_host_devices()`` and ``dcjax.use_compiled_loops()`` before any JAX computation.
 """
 
 from importlib.metadata import PackageNotFoundError, version
@@ -22,7 +23,7 @@ except PackageNotFoundError:  # a source tree that was not installed
     __version__ = "0+unknown"
 
 from .bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
-from .devices import use_compilation_cache, use_host_devices  # noqa: E402
+from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
 from .identify import identify  # noqa: E402
 from .integrate import simulate  # noqa: E402
 from .loading import load_recording  # noqa: E402
@@ -62,5 +63,6 @@ __all__ = [
     "IdentificationResult",
     "load_result",
     "use_host_devices",
+    "use_compiled_loops",
     "use_compilation_cache",
 ]

@@ -2,6 +2,7 @@
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 from .units import parse_mapping
@@ -300,9 +301,12 @@ COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "rep
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from .devices import use_compilation_cache, use_host_devices
+    from .devices import use_compilation_cache, use_compiled_loops, use_host_devices
 
     use_host_devices()
+    with warnings.catch_warnings():  # main() called in a process where JAX already runs: skip quietly
+        warnings.simplefilter("ignore")
+        use_compiled_loops()  # a population's time loop as one CPU function (XLA_FLAGS set by the user: kept)
     use_compilation_cache()  # a repeated fit loads its executables (DCJAX_NO_CACHE=1: off)
     try:
         return COMMANDS[args.command](args)

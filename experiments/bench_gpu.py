@@ -18,6 +18,7 @@ import numpy as np
 import dcjax
 
 dcjax.use_host_devices()
+dcjax.use_compiled_loops()
 
 from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem  # noqa: E402
 from dcjax.fleet import identify_fleet  # noqa: E402

@@ -10,6 +10,7 @@ import argparse
 import dcjax
 
 dcjax.use_host_devices()
+dcjax.use_compiled_loops()
 
 from dcjax import datasets, identify  # noqa: E402
 

@@ -19,6 +19,7 @@ from dcjax.strategies.compact import compacted
 from dcjax.strategies.memory import Memory
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compiled_loops()
 
 
 def best_of(f, *args, reps=30):

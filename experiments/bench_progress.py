@@ -11,6 +11,7 @@ import numpy as np
 import dcjax
 
 dcjax.use_host_devices()
+dcjax.use_compiled_loops()
 
 from dcjax import datasets, identify  # noqa: E402
 

@@ -19,6 +19,7 @@ from dcjax.integrate import prepare, rk4_step
 from dcjax.reference import objective_numpy
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compiled_loops()
 
 
 def main():

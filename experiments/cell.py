@@ -18,6 +18,7 @@ from .cells import Cell, Store, cell_arrays, run_cell
 @hydra.main(version_base="1.3", config_path="conf", config_name="cell")
 def main(cfg: DictConfig) -> None:
     dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+    dcjax.use_compiled_loops()
     dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
     cell = Cell(
         str(cfg.data),

@@ -15,6 +15,7 @@ from dcjax.fleet import identify_fleet
 from dcjax.reference import simulate_numpy
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+dcjax.use_compiled_loops()
 dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
 
 

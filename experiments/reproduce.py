@@ -93,6 +93,7 @@ def plan(cfg: DictConfig) -> list[Cell]:
 @hydra.main(version_base="1.3", config_path="conf", config_name="reproduce")
 def main(cfg: DictConfig) -> None:
     dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
+    dcjax.use_compiled_loops()
     dcjax.use_compilation_cache()  # executables persist across runs (DCJAX_NO_CACHE=1: off)
     started = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     store = Store(cfg.store)
@@ -110,6 +111,7 @@ def main(cfg: DictConfig) -> None:
     with tqdm(total=total, initial=total - sum(c.runs for c in todo), unit="run", dynamic_ncols=True) as bar:
         for cell in todo:
             bar.set_description(f"{cell.data} {cell.method} {cell.variant} w1={cell.w1} {cell.memory or ''} {cell.case}".strip())
+            time.sleep(float(cfg.pause_s))
             line = run_cell(cell)
             compile_s += line["compile_s"]
             store.append(line)

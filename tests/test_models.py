@@ -253,3 +253,48 @@ def test_import_changes_no_xla_flags():
     code = "import dcjax; print(dcjax.use_host_devices(2), len(__import__('jax').devices()))"
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert p.stdout.split() == ["2", "2"], p.stderr
+
+
+LOOP_PROBE = """
+import os, warnings
+import dcjax, jax, jax.numpy as jnp
+from dcjax import datasets
+on = dcjax.use_compiled_loops({arg})
+prob = dcjax.make_problem(datasets.load("SD1"))
+x = jnp.tile(jnp.asarray(datasets.true_params("SD1")["Ra"]), (70, 7))
+text = jax.jit(lambda x: dcjax.objective(x, prob)).lower(x).compile().as_text()
+with warnings.catch_warnings(record=True) as late:
+    warnings.simplefilter("always")
+    again = dcjax.use_compiled_loops()
+print(on, "xla_cpu_small_call" in text, again, len(late), os.environ.get("XLA_FLAGS", "").count("small_while"))
+"""
+
+
+@pytest.mark.parametrize(
+    "flags, arg, expect",
+    [
+        (None, "", ["True", "True", "True", "0", "1"]),  # on: the time loop is one call
+        (None, "512", ["True", "False", "True", "0", "1"]),  # a 17 KB loop is above 512 bytes
+        ("--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1024", "", ["True", "False", "True", "0", "1"]),
+        ("--xla_backend_extra_options=xla_llvm_dot_tiling_factor=4", "", ["False", "False", "False", "0", "0"]),  # user's: kept
+    ],
+)
+def test_use_compiled_loops(flags, arg, expect):
+    """Off by default (test_import_changes_no_xla_flags); `use_compiled_loops()` compiles the
+    objective's time loop as one function, leaves a user's `xla_backend_extra_options` alone and
+    does not add its option twice."""
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    if flags:
+        env["XLA_FLAGS"] = flags
+    p = subprocess.run([sys.executable, "-c", LOOP_PROBE.format(arg=arg)], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == expect
+
+
+def test_use_compiled_loops_after_start_warns():
+    code = "import dcjax, jax, warnings; jax.numpy.ones(1).block_until_ready(); warnings.simplefilter('error'); dcjax.use_compiled_loops()"
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert p.returncode != 0 and "before any JAX computation" in p.stderr
+    with pytest.raises(ValueError, match="max_bytes"):
+        dcjax.use_compiled_loops(0)

@@ -7,7 +7,7 @@ import pytest
 
 from dcjax import TABLE4, Params, make_problem, objective
 from dcjax.strategies import DEBest1Bin, Evosax, State, make_strategy, run
-from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate
+from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate, index_below
 from dcjax.strategies.de import binomial_crossover, exponential_crossover
 
 METHODS = ["ga", "de-rand-1-exp", "de-best-1-bin", "tlbo", "abc"]
@@ -100,25 +100,38 @@ def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):
 
 def test_distinct_indices():
     n = 70
-    idx = distinct_indices(jax.random.PRNGKey(0), n, jnp.arange(n), 3)
+    idx = distinct_indices(jax.random.uniform(jax.random.PRNGKey(0), (n, 3)), n, jnp.arange(n))
     all_ = np.concatenate([np.arange(n)[:, None], np.asarray(idx)], axis=1)
     assert all(len(set(row)) == 4 for row in all_)
     assert idx.min() >= 0 and idx.max() < n
-    many = np.asarray(distinct_indices(jax.random.PRNGKey(1), 5, jnp.zeros(20000, int), 1))[:, 0]
+    many = np.asarray(distinct_indices(jax.random.uniform(jax.random.PRNGKey(1), (20000, 1)), 5, jnp.zeros(20000, int)))[:, 0]
     counts = np.bincount(many, minlength=5)
     assert counts[0] == 0 and np.all(np.abs(counts[1:] / 20000 - 0.25) < 0.02)
+    # pairs: each ordered pair of distinct indices (both != the excluded 0) equally likely
+    pairs = np.asarray(distinct_indices(jax.random.uniform(jax.random.PRNGKey(2), (60000, 2)), 5, jnp.zeros(60000, int)))
+    assert np.all(pairs[:, 0] != pairs[:, 1]) and pairs.min() >= 1
+    freq = np.bincount(pairs[:, 0] * 5 + pairs[:, 1], minlength=25).reshape(5, 5)[1:, 1:]
+    off = ~np.eye(4, dtype=bool)
+    assert np.all(np.abs(freq[off] / 60000 - 1 / 12) < 0.01)
+
+
+def test_index_below_is_uniform_and_in_range():
+    u = jnp.array([0.0, 0.2499, 0.25, 0.9999999999999999])
+    np.testing.assert_array_equal(index_below(u, 4), [0, 0, 1, 3])
+    k = np.asarray(index_below(jax.random.uniform(jax.random.PRNGKey(3), (40000,)), 7))
+    assert k.min() == 0 and k.max() == 6 and np.all(np.abs(np.bincount(k) / 40000 - 1 / 7) < 0.01)
 
 
 def test_crossovers():
     p, d = 2000, 7
     target, mutant = jnp.zeros((p, d)), jnp.ones((p, d))
-    exp = np.asarray(exponential_crossover(jax.random.PRNGKey(0), target, mutant, 0.8))
+    exp = np.asarray(exponential_crossover(jax.random.uniform(jax.random.PRNGKey(0), (p, d)), target, mutant, 0.8))
     assert np.all(exp.sum(1) >= 1)
     for row in exp:  # one contiguous cyclic block of mutant genes
         assert np.sum(np.abs(np.diff(np.r_[row, row[0]]))) <= 2
     # mean block length (1 - CR^D) / (1 - CR)
     np.testing.assert_allclose(exp.sum(1).mean(), (1 - 0.8**7) / 0.2, rtol=0.05)
-    binm = np.asarray(binomial_crossover(jax.random.PRNGKey(1), target, mutant, 0.8))
+    binm = np.asarray(binomial_crossover(jax.random.uniform(jax.random.PRNGKey(1), (p, d + 1)), target, mutant, 0.8))
     assert np.all(binm.sum(1) >= 1)
     np.testing.assert_allclose(binm.mean(), 0.8 + 0.2 / 7, rtol=0.03)
 
@@ -126,13 +139,13 @@ def test_crossovers():
 def test_bound_rules():
     z = jnp.array([[-0.5, 0.5, 1.5]])
     parent = jnp.array([[0.2, 0.5, 0.8]])
-    key = jax.random.PRNGKey(0)
-    r = np.asarray(apply_bounds(key, z, "redraw"))
-    assert np.all((r >= 0) & (r <= 1)) and r[0, 1] == 0.5
-    np.testing.assert_array_equal(apply_bounds(key, z, "clip"), [[0.0, 0.5, 1.0]])
-    np.testing.assert_allclose(apply_bounds(key, z, "midpoint", parent), [[0.1, 0.5, 0.9]])
+    u = jnp.array([[0.3, 0.6, 0.9]])  # the variates a redraw takes
+    r = np.asarray(apply_bounds(u, z, "redraw"))
+    np.testing.assert_array_equal(r, [[0.3, 0.5, 0.9]])
+    np.testing.assert_array_equal(apply_bounds(u, z, "clip"), [[0.0, 0.5, 1.0]])
+    np.testing.assert_allclose(apply_bounds(u, z, "midpoint", parent), [[0.1, 0.5, 0.9]])
     with pytest.raises(ValueError, match="bounds rule"):
-        apply_bounds(key, z, "wrap")
+        apply_bounds(u, z, "wrap")
 
 
 def test_evaluate_respects_budget():

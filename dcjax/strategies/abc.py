@@ -14,7 +14,7 @@ A colony of NP bees tends SN = NP / 2 food sources.
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, initial_state
+from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, index_below, initial_state, uniforms
 
 
 class ABC(Strategy):
@@ -35,13 +35,13 @@ class ABC(Strategy):
     def _move(self, key, pop, who):
         """Candidate v for the sources `who` (one per bee)."""
         sn, d = pop.shape
-        kk, kj, kp, kb = jax.random.split(key, 4)
-        partner = distinct_indices(kk, sn, who, 1)[:, 0]
-        j = jax.random.randint(kj, (who.shape[0], 1), 0, d)
-        phi = jax.random.uniform(kp, (who.shape[0], 1), minval=-1.0, maxval=1.0)
+        pick, gene, phi, bounds = uniforms(key, who.shape[0], (1, 1, 1, d))
+        partner = distinct_indices(pick, sn, who)[:, 0]
+        j = index_below(gene, d)
+        phi = 2.0 * phi - 1.0  # U(-1, 1)
         x = pop[who]
         v = jnp.where(jnp.arange(d)[None, :] == j, x + phi * (x - pop[partner]), x)
-        return apply_bounds(kb, v, self.bounds_rule, x)
+        return apply_bounds(bounds, v, self.bounds_rule, x)
 
     def step(self, key, state, fn, budget) -> State:
         sn = self.n_sources

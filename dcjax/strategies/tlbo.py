@@ -7,10 +7,9 @@ Learner phase:  for a random partner j != i, x' = x_i + r (x_i - x_j) if f(x_i) 
 Each phase keeps x' when it is no worse (greedy); out-of-bound genes are clipped.
 """
 
-import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, initial_state
+from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, index_below, initial_state, uniforms
 
 
 class TLBO(Strategy):
@@ -25,18 +24,18 @@ class TLBO(Strategy):
 
     def step(self, key, state, fn, budget) -> State:
         n, d = state.pop.shape
-        kt, kr1, kb1, kp, kr2, kb2 = jax.random.split(key, 6)
+        r1, b1, pick, r2, b2, coin = uniforms(key, n, (d, d, 1, d, d, 1))
         pop, fit = state.pop, state.fit
         teacher = pop[jnp.argmin(fit)]
-        tf = jax.random.randint(kt, (), 1, 3).astype(pop.dtype)
-        new = pop + jax.random.uniform(kr1, (n, d)) * (teacher - tf * pop.mean(axis=0))
-        new = apply_bounds(kb1, new, self.bounds_rule, pop)
+        tf = 1.0 + index_below(coin[0, 0], 2).astype(pop.dtype)  # T_F in {1, 2}
+        new = pop + r1 * (teacher - tf * pop.mean(axis=0))
+        new = apply_bounds(b1, new, self.bounds_rule, pop)
         new_fit, new, state = evaluate(fn, new, state, budget)
         pop, fit, _ = greedy(pop, fit, new, new_fit)
-        partner = distinct_indices(kp, n, jnp.arange(n), 1)[:, 0]
+        partner = distinct_indices(pick, n, jnp.arange(n))[:, 0]
         xj, fj = pop[partner], fit[partner]
         direction = jnp.where((fit < fj)[:, None], pop - xj, xj - pop)
-        new = apply_bounds(kb2, pop + jax.random.uniform(kr2, (n, d)) * direction, self.bounds_rule, pop)
+        new = apply_bounds(b2, pop + r2 * direction, self.bounds_rule, pop)
         new_fit, new, state = evaluate(fn, new, state, budget)
         pop, fit, _ = greedy(pop, fit, new, new_fit)
         return state.replace(pop=pop, fit=fit)

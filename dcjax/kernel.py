@@ -7,6 +7,7 @@ the kernel, with Euler/RK4, ND sub-steps, eq. 29 interpolation, the clamp, chann
 non-uniform time steps exactly as in `dcjax.integrate`."""
 
 import os
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -30,7 +31,33 @@ def kernel_mode() -> str | None:
         return "interpret"
     if choice in ("1", "on"):
         return "compiled"
-    return "compiled" if jax.default_backend() == "gpu" else None
+    return "compiled" if jax.default_backend() == "gpu" and kernel_compiles() else None
+
+
+_PROBE: dict[str, bool] = {}
+
+
+def kernel_compiles() -> bool:
+    """Whether the objective kernel compiles and runs on this backend, tried once per process on
+    a block of SD1 candidates. The Triton lowering in float64 has not been run on a real GPU by
+    this project (no GPU was lent), so the default does not depend on it: where it fails, dcjax
+    warns and evaluates with the `lax.scan` (`DCJAX_KERNEL=1` still forces the kernel)."""
+    if "ok" not in _PROBE:
+        from .datasets import load, true_params
+        from .problem import make_problem
+
+        problem = make_problem(load("SD1"))
+        truth = true_params("SD1")
+        x = jnp.tile(jnp.asarray([truth[n] for n in problem.model.names], jnp.float64), (BLOCK, 1))
+        try:
+            of = jax.jit(lambda x: objective_kernel(x, problem))(x)
+            _PROBE["ok"] = bool(jnp.all(jnp.isfinite(of)))
+        except Exception as e:  # a lowering or runtime error of the kernel, whatever its type
+            warnings.warn(
+                f"the Pallas kernel does not run here ({type(e).__name__}: {str(e)[:160]}); dcjax uses the lax.scan", stacklevel=2
+            )
+            _PROBE["ok"] = False
+    return _PROBE["ok"]
 
 
 def _inputs(problem: Problem):

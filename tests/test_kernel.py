@@ -61,3 +61,18 @@ def test_identify_through_the_kernel_equals_the_scan(sd1, monkeypatch):
     assert not b.timing["reused_executable"]  # the kernel mode is part of the executable's key
     np.testing.assert_allclose(b.run_of, a.run_of, rtol=1e-12)
     np.testing.assert_allclose(b.run_params, a.run_params, rtol=1e-12)
+
+
+def test_gpu_default_falls_back_to_the_scan_when_the_kernel_does_not_compile(monkeypatch):
+    """On a GPU backend the kernel is the default only if it compiles there: here (CPU, not
+    interpreted) Pallas cannot lower it, which stands in for a Triton failure on a real GPU."""
+    import dcjax.kernel as kernel
+
+    monkeypatch.delenv("DCJAX_KERNEL", raising=False)
+    monkeypatch.setattr(kernel.jax, "default_backend", lambda: "gpu")
+    monkeypatch.setattr(kernel, "_PROBE", {})
+    with pytest.warns(UserWarning, match="uses the lax.scan"):
+        assert kernel.kernel_mode() is None
+    assert kernel.kernel_mode() is None  # tried once per process
+    monkeypatch.setattr(kernel, "_PROBE", {"ok": True})
+    assert kernel.kernel_mode() == "compiled"

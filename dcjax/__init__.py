@@ -24,14 +24,18 @@ except PackageNotFoundError:  # a source tree that was not installed
 
 from .bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
+from .each import FailedFit, fit_each  # noqa: E402
+from .estimate import initial_estimate  # noqa: E402
+from .fit import LTMA, RK4, STMA, AutoSubsteps, Euler, IndexedLTMA, fit, with_weights  # noqa: E402
 from .identify import identify  # noqa: E402
 from .integrate import simulate  # noqa: E402
 from .loading import load_recording  # noqa: E402
 from .models import DC, MODELS, DCCoulomb, Model, get_model  # noqa: E402
 from .objectives import Problem, make_problem, objective, residuals  # noqa: E402
+from .parameters import Parameter, Parameters  # noqa: E402
 from .params import PARAM_NAMES, Params  # noqa: E402
 from .recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
-from .result import IdentificationResult, load_result  # noqa: E402
+from .result import FitResult, IdentificationResult, load_result  # noqa: E402
 from .space import Space, make_space  # noqa: E402
 
 __all__ = [
@@ -59,6 +63,20 @@ __all__ = [
     "simulate",
     "objective",
     "residuals",
+    "fit",
+    "fit_each",
+    "FailedFit",
+    "with_weights",
+    "Euler",
+    "RK4",
+    "AutoSubsteps",
+    "STMA",
+    "LTMA",
+    "IndexedLTMA",
+    "Parameter",
+    "Parameters",
+    "initial_estimate",
+    "FitResult",
     "identify",
     "IdentificationResult",
     "load_result",

@@ -51,6 +51,11 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
     g.add_argument("--trim", action="store_true", help="cut the samples before the armature is switched on")
     g.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
+    g.add_argument(
+        "--scale", default=None, help="channel=factor pairs applied after --units, e.g. omega=322.67 (gear ratio / wheel radius)"
+    )
+    g.add_argument("--dt", type=float, default=None, help="sample time (s) for a file without a time column")
+    g.add_argument("--rate", type=float, default=None, help="sample rate (Hz) for a file without a time column")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -61,8 +66,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"dcjax {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
     f = sub.add_parser("fit", help="identify a model's parameters from recordings")
-    f.add_argument("data", nargs="+", help="data file(s) or embedded names (SD1..SD4, MD1..MD4); several = joint fit")
-    f.add_argument("--model", default="dc", help="dc (default), dc-coulomb or package.module:attr")
+    f.add_argument("data", nargs="+", help="data file(s) or embedded names (SD1..SD4, MD1..MD4); several = joint fit (see --each)")
+    f.add_argument(
+        "--each",
+        action="store_true",
+        help="fit every file on its own: DIR/<name>/ per file, DIR/summary.csv and DIR/summary.png; "
+        "exit 0 all fitted, 1 some failed, 2 none fitted",
+    )
+    f.add_argument("--model", default="dc", help="dc (default), dc-coulomb, package.module:attr or path/to/file.py:Name")
     f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
     f.add_argument("--integrator", default="rk4", choices=["euler", "rk4"])
     f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
@@ -71,7 +82,10 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--weights", default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)")
     f.add_argument(
-        "--bounds", default=None, help="a bounds preset of the model: table4 or table8 (default: table4, or the sidecar's 'bounds')"
+        "--bounds",
+        default=None,
+        help="auto (ranges from an equation-error first estimate) or a preset of the model, e.g. table4, table8 "
+        "(default: the sidecar's 'bounds', else auto)",
     )
     f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. Ra=0:10,J=0:0.1")
     f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
@@ -106,6 +120,21 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("data", nargs="+", help="data file(s) or embedded names")
     v.add_argument("--out", default="out", help="output folder")
     _add_data_options(v)
+    d = sub.add_parser("design", help="design the next experiment's input from a fit (optimal input design)")
+    d.add_argument("result", help="result.json of a fit")
+    d.add_argument("--duration", type=float, required=True, help="length of the test (s)")
+    d.add_argument("--dt", type=float, required=True, help="sample time (s)")
+    d.add_argument("--umin", type=float, required=True, help="lowest input level (V)")
+    d.add_argument("--umax", type=float, required=True, help="highest input level (V)")
+    d.add_argument("--hold", type=float, default=None, help="shortest time an input level is held (s; default duration/20)")
+    d.add_argument("--i-limit", type=float, default=None, help="supply current limit (A; default the fitted recording's)")
+    d.add_argument("--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. J,Tla,Tlb,Tlc")
+    d.add_argument("--noise", default=None, help="noise std. dev. per channel, e.g. i_a=0.05,omega=0.5 (default: the fit's residuals, "
+                   "or 1%% of each channel's peak under a full step where the fit left none)")  # fmt: skip
+    d.add_argument("--starts", type=int, default=8, help="optimizer starts")
+    d.add_argument("--steps", type=int, default=300, help="optimizer steps per start")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--out", default="design", help="output folder")
     r = sub.add_parser("report", help="print the fit report of a saved result")
     r.add_argument("result", help="result.json of a fit")
     r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
@@ -117,7 +146,7 @@ def _load(data: str, args, model):
     from .loading import load_recording
 
     if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
-        if any(getattr(args, k, None) for k in ("columns", "units", "window", "every", "trim")):
+        if any(getattr(args, k, None) for k in ("window", "every", "trim")):  # --columns, --units, --scale, --dt, --rate are for files
             rec = datasets.load(data)
             from .loading import preprocess
 
@@ -127,6 +156,9 @@ def _load(data: str, args, model):
         data,
         columns=parse_mapping(args.columns, "--columns") or None,
         units=parse_mapping(args.units, "--units") or None,
+        scale=_named_floats(args.scale, "--scale") or None,
+        dt=args.dt,
+        rate=args.rate,
         delimiter=args.delimiter,
         decimal=args.decimal,
         model=model,
@@ -137,36 +169,40 @@ def _load(data: str, args, model):
     )
 
 
-def fit(args) -> int:
-    import numpy as np
+def _nd(text: str):
+    if text == "auto":
+        return "auto"
+    try:
+        return int(text)
+    except ValueError:
+        raise ValueError(f"--nd must be a positive integer or 'auto', got {text!r}") from None
 
+
+def _bounds(args, model, rec):
+    """--lower/--upper, --bounds (a preset or auto; default the sidecar's preset, else auto) and
+    the --bound overrides over them. Returns (Bounds, start values of the auto estimate)."""
     from .bounds import Bounds, resolve_bounds
-    from .identify import identify
-    from .models import get_model
 
-    model = get_model(args.model)
-    recs = [_load(d, args, model) for d in args.data]
-    rec = recs[0]
-    if args.nd == "auto":
-        nd = "auto"
-    else:
-        try:
-            nd = int(args.nd)
-        except ValueError:
-            raise ValueError(f"--nd must be a positive integer or 'auto', got {args.nd!r}") from None
-    weights = None if args.weights is None else tuple(_floats(args.weights, "--weights", len(model.outputs)))
     if (args.lower is None) != (args.upper is None):
         raise ValueError("--lower and --upper must be given together")
+    start = {}
     if args.lower is not None:
         if args.bounds is not None:
             raise ValueError("give either --bounds or --lower/--upper, not both")
         bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
     else:
-        preset = args.bounds or rec.metadata.get("bounds")
-        bounds = resolve_bounds(model, preset if preset in model.bounds or args.bounds else None)
-    bounds = resolve_bounds(model, bounds, _named_ranges(args.bound, "--bound"))
-    fixed = _named_floats(args.fix, "--fix")
-    x0 = _named_floats(args.x0, "--x0") or None
+        preset = args.bounds or (rec.metadata.get("bounds") if rec.metadata.get("bounds") in model.bounds else "auto")
+        if preset.lower() == "auto":
+            from .estimate import auto_bounds
+
+            bounds, start, _ = auto_bounds(rec, model)
+        else:
+            bounds = resolve_bounds(model, preset)
+    return resolve_bounds(model, bounds, _named_ranges(args.bound, "--bound")), start
+
+
+def _options(args, model) -> dict:
+    """The identify options every file of this command shares (bounds are per file)."""
     precision = None
     if args.precision is not None:
         precision = (
@@ -174,13 +210,11 @@ def fit(args) -> int:
             if "=" in args.precision
             else _floats(args.precision, "--precision", model.n_params)
         )
-    result = identify(
-        recs,
+    return dict(
         method=args.method,
         integrator=args.integrator,
-        nd=nd,
-        weights=weights,
-        bounds=bounds,
+        nd=_nd(args.nd),
+        weights=None if args.weights is None else tuple(_floats(args.weights, "--weights", len(model.outputs))),
         runs=args.runs,
         budget=args.budget,
         seed=args.seed,
@@ -190,20 +224,58 @@ def fit(args) -> int:
         precision=precision,
         generations=args.generations,
         model=model,
-        fixed=fixed or None,
-        x0=x0,
-        progress=sys.stderr.isatty() if args.progress is None else args.progress,
+        fixed=_named_floats(args.fix, "--fix") or None,
     )
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+
+
+def _fit_one(recs, args, model, options, progress):
+    from .identify import identify
+
+    bounds, start = _bounds(args, model, recs[0])
+    x0 = _named_floats(args.x0, "--x0") or None
+    if x0 is None and start:
+        lo, hi = bounds.lower, bounds.upper
+        x0 = {
+            n: v
+            for n, v in start.items()
+            if n not in (options["fixed"] or {}) and lo[model.names.index(n)] <= v <= hi[model.names.index(n)]
+        } or None
+    result = identify(recs, bounds=bounds, x0=x0, progress=progress, **options)
     if args.uncertainty:
         result.uncertainty()
-    result.to_json(out / "result.json")
-    result.plot(out / "fit.png")
-    truth = rec.metadata.get("true_params")
+    return result
+
+
+def bound_hints(result) -> list[str]:
+    """One line per free parameter that ended on a search bound: what it means, what to do."""
+    b = result.bounds
+    lo, hi = b.lower, b.upper
+    out = []
+    for n in result.at_bound():
+        k = result.names.index(n)
+        v = result.params[n]
+        if abs(v - lo[k]) <= abs(v - hi[k]):
+            if lo[k] == 0:
+                out.append(
+                    f"hint: {n} ended at 0, its lower bound: this recording does not need the term, or {n} is not identifiable from it"
+                )
+            else:
+                out.append(f"hint: {n} ended at its lower bound {lo[k]:g}: widen it, e.g. --bound {n}={lo[k] / 10:g}:{hi[k]:g}")
+        else:
+            out.append(
+                f"hint: {n} ended at its upper bound {hi[k]:g}: widen it, e.g. --bound {n}={lo[k]:g}:{hi[k] * 10:g} (or --bounds auto)"
+            )
+    return out
+
+
+def _print_fit(result, recs, args, model, out):
+    import numpy as np
+
+    truth = recs[0].metadata.get("true_params")
     if any(r.metadata.get("true_params") != truth for r in recs) or not isinstance(truth, dict) or set(truth) != set(model.names):
         truth = None
     names = " + ".join(r.name for r in recs)
+    b = result.settings["bounds"]
     print(
         f"{names}: model {model.name}, {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
     )
@@ -213,16 +285,21 @@ def fit(args) -> int:
         print(
             f"  nd auto: ND={auto['chosen']} (reference error {auto['reference_error']:.2e} <= {auto['tol']:g}: {auto['converged']}); at the ND=1 fit {tried}"
         )
-    header = f"{'param':>6} {'unit':>7} {'identified':>22}" + (f" {'true':>14} {'rel. error':>11}" if truth else "")
+    header = f"{'param':>6} {'unit':>7} {'identified':>22} {'lower':>10} {'upper':>10}" + (
+        f" {'true':>14} {'rel. error':>11}" if truth else ""
+    )
     print(header)
-    for name in model.names:
+    at_bound = set(result.at_bound())
+    for k, name in enumerate(model.names):
         v = result.params[name]
-        line = f"{name:>6} {model.units.get(name, ''):>7} {v:>22.15g}"
+        line = f"{name:>6} {model.units.get(name, ''):>7} {v:>22.15g} {b['lower'][k]:>10.3g} {b['upper'][k]:>10.3g}"
         if truth:
             t = truth[name]
             line += f" {t:>14.6g} {abs(v - t) / abs(t) if t else abs(v):>11.2e}"
         if name in result.fixed:
             line += "  (fixed)"
+        elif name in at_bound:
+            line += "  [at bound]"
         print(line)
     s = result.stats
     print(f"OF best {s['best']:.4e}  worst {s['worst']:.4e}  mean {s['mean']:.4e}  std {s['std']:.4e}")
@@ -234,10 +311,67 @@ def fit(args) -> int:
         )
     if args.uncertainty:
         print(result._uncertainty.table())
+    for line in bound_hints(result):
+        print(line)
     print(
         f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}"
     )
+
+
+def _save(result, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    result.to_json(out / "result.json")
+    result.plot(out / "fit.png")
+
+
+def fit(args) -> int:
+    from .models import get_model
+
+    model = get_model(args.model)
+    options = _options(args, model)
+    if args.each:
+        return fit_each_cmd(args, model, options)
+    recs = [_load(d, args, model) for d in args.data]
+    result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
+    out = Path(args.out)
+    _save(result, out)
+    _print_fit(result, recs, args, model, out)
     return 0
+
+
+def fit_each_cmd(args, model, options) -> int:
+    """`dcjax fit --each`: one fit per file; a file that fails is reported and skipped."""
+    from .each import FailedFit, summary_rows, write_summary
+
+    out = Path(args.out)
+    results = []
+    names: dict[str, int] = {}
+    for data in args.data:
+        label = Path(data).stem if Path(data).exists() else data
+        try:
+            rec = _load(data, args, model)
+            label = rec.name or label
+            from .each import _check
+
+            _check(rec, model, options)
+            result = _fit_one([rec], args, model, options, False)
+        except Exception as e:  # one broken file fails alone, whatever broke
+            results.append(FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data))
+            print(f"{label}: failed: {results[-1].error}")
+            continue
+        k = names.get(label, 0)
+        names[label] = k + 1
+        folder = out / (label if k == 0 else f"{label}_{k + 1}")
+        _save(result, folder)
+        results.append(result)
+        hints = bound_hints(result)
+        print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(result.at_bound())}" if hints else "") + f"; wrote {folder}")
+    rows = summary_rows(results, model)
+    csv_path, png = write_summary(rows, out, model)
+    ok = sum(r["status"] == "ok" for r in rows)
+    flagged = [r["name"] for r in rows if r.get("outlier")]
+    print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {csv_path} and {png}")
+    return 0 if ok == len(rows) else 1 if ok else 2
 
 
 def _result(path):
@@ -296,7 +430,49 @@ def report_cmd(args) -> int:
     return 0
 
 
-COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "report": report_cmd}
+def design_cmd(args) -> int:
+    import numpy as np
+
+    from .design import design_input, evaluate_input, noise_from_fit, write_design
+
+    res = _result(args.result)
+    m = res.model
+    noise = _named_floats(args.noise, "--noise") or None
+    if noise is None:
+        noise = noise_from_fit(res)
+    rec = res.recording
+    limit = args.i_limit if args.i_limit is not None else res.settings.get("i_limit") or (rec.i_a_limit if rec is not None else None)
+    for name, v in (("--starts", args.starts), ("--steps", args.steps)):
+        if v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v}")
+    design = design_input(
+        m, res.params, duration=args.duration, dt=args.dt, u_range=(args.umin, args.umax), hold=args.hold, i_limit=limit,
+        criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), starts=args.starts, steps=args.steps, seed=args.seed,
+    )  # fmt: skip
+    t = design.recording.t
+    baselines = {f"step to {args.umax:g}": evaluate_input(design, m, np.full_like(t, args.umax))}
+    if rec is not None:
+        baselines[f"recording {rec.name}"] = evaluate_input(design, m, np.asarray(rec[m.inputs[0]]), t=np.asarray(rec.t - rec.t[0]))
+    files = write_design(design, baselines, Path(args.out), m)
+    print(
+        f"designed input: {design.criterion}-criterion, {args.duration:g} s at {args.dt:g} s, levels in [{args.umin:g}, {args.umax:g}], hold {design.hold:g} s"
+    )
+    print("noise: " + ", ".join(f"{c} {v:.3g}" for c, v in design.noise.items()))
+    print(f"{'param':>6} {'design':>12}" + "".join(f" {k:>22}" for k in baselines) + "   (predicted relative std. errors)")
+    for n in design.free:
+        print(
+            f"{n:>6} {100 * design.relative_stderr()[n]:>11.3g}%"
+            + "".join(f" {100 * b.relative_stderr()[n]:>21.3g}%" for b in baselines.values())
+        )
+    if design.unidentifiable:
+        print(
+            f"not identifiable from any input of this form: {', '.join(design.unidentifiable)} (a null direction of the information matrix: the model structure hides them)"
+        )
+    print("wrote " + ", ".join(str(f) for f in files))
+    return 0
+
+
+COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "report": report_cmd, "design": design_cmd}
 
 
 def main(argv: list[str] | None = None) -> int:

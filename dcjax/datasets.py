@@ -53,6 +53,7 @@ def generate_sd(name: str) -> Recording:
         "u_a": SD_VOLTAGE,
         "dt": SD_DT,
         "computed_instants": SD_STEPS,
+        "bounds": "table4",
     }
     return Recording(t=t, u_a=u, i_a=traj[:, 0], omega=traj[:, 1], name=name.upper(), metadata=meta)
 

@@ -227,6 +227,11 @@ def identify(
     if generations is not None:
         check_positive_int("generations", generations)
     assert not isinstance(nd, str)
+    if isinstance(bounds, str) and bounds.lower() == "auto":
+        from .estimate import auto_bounds
+
+        bounds, start, _ = auto_bounds(recordings, model)
+        x0 = x0 if x0 is not None else {n: v for n, v in start.items() if n not in (fixed or {})} or None
     b = resolve_bounds(model, bounds)
     space = make_space(model, b, fixed)
     prec = None if memory is None else jnp.asarray(unit_precision(precision, space, model))
@@ -300,6 +305,7 @@ def identify(
         "precision": None if memory is None else physical_precision(precision, model).tolist(),
         "generations": generations,
         "strategy": repr(strategy),
+        "ndata": int(sum(len(r) * len(model.outputs) for r in recordings)),
     }
     return IdentificationResult(
         params=dict(zip(model.names, map(float, run_x[best]))),

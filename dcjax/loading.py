@@ -154,6 +154,9 @@ def load_recording(
     window=None,
     every: int | None = None,
     trim: bool | float = False,
+    scale: dict | None = None,
+    dt: float | None = None,
+    rate: float | None = None,
 ) -> Recording:
     """A recording from a file, with the model's channels (default: the paper's `t, u_a, i_a,
     omega`) in SI units.
@@ -165,6 +168,9 @@ def load_recording(
       a channel not mapped is looked up by its own name.
     - `units`: channel -> unit (`t`: s, ms, us; voltage: V, mV, kV; current: A, mA; speed: rad/s,
       rpm, 1/min, rev/s, deg/s), converted to SI.
+    - `scale`: channel -> factor applied after the unit conversion (a speed logged in m/s at the
+      wheel behind a 9.68:1 gear on a 30 mm wheel: `{"omega": 9.68 / 0.03}`).
+    - `dt` (s) or `rate` (Hz): for a file without a time column, t = k dt.
     - A JSON sidecar with the same stem supplies the name, the current limit (`i_a_limit`) and
       metadata; `i_limit` overrides it.
     - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
@@ -184,7 +190,7 @@ def load_recording(
     else:
         raise ValueError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
     needed = tuple(c for c in m.channels)
-    chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ")
+    chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate)
     meta = read_sidecar(path)
     limit = i_limit if i_limit is not None else meta.get("i_a_limit")
     t = chans.pop("t")
@@ -199,14 +205,20 @@ def load_recording(
         "every": every,
         "trim": trim,
         "i_limit": i_limit,
+        "scale": scale or None,
+        "dt": dt,
+        "rate": rate,
         "model": None if model is None else (m.name if isinstance(model, str) else None),
     }
     load = {k: v for k, v in load.items() if v not in (None, False) and not (k == "decimal" and v == ".")}
     return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})
 
 
-def recording_from_table(table, columns=None, units=None, model=None, name: str = "", i_limit=None) -> Recording:
-    """A recording from any column table (a pandas DataFrame, a dict of arrays, a structured array)."""
+def recording_from_table(
+    table, columns=None, units=None, model=None, name: str = "", i_limit=None, scale=None, dt=None, rate=None
+) -> Recording:
+    """A recording from any column table (a pandas DataFrame, a dict of arrays, a structured array);
+    `columns`, `units`, `scale`, `dt`/`rate` as in `load_recording`."""
     m = get_model(model)
     if hasattr(table, "columns") and hasattr(table, "__getitem__"):
         cols = {str(c): np.asarray(table[c]) for c in table.columns}
@@ -216,6 +228,6 @@ def recording_from_table(table, columns=None, units=None, model=None, name: str 
         cols = {n: np.asarray(table[n]) for n in table.dtype.names}
     else:
         raise ValueError("table must be a DataFrame, a dict of arrays or a structured array")
-    chans = select_channels(cols, m.channels, columns, units, m.quantities)
+    chans = select_channels(cols, m.channels, columns, units, m.quantities, scale=scale, dt=dt, rate=rate)
     t = chans.pop("t")
     return Recording(t=t, channels=chans, i_a_limit=i_limit, name=name)

@@ -122,12 +122,17 @@ class Recording:
         return Recording(channels=chans, **kw)
 
     @classmethod
-    def from_dataframe(cls, df, columns=None, units=None, model=None, name: str = "", i_limit=None) -> "Recording":
+    def from_dataframe(
+        cls, df, columns=None, units=None, model=None, name: str = "", i_limit=None, scale=None, dt=None, rate=None
+    ) -> "Recording":
         """From a pandas DataFrame (or a dict of arrays): `columns` maps channels to column names,
-        `units` converts to SI (see `dcjax.load_recording`)."""
+        `units` converts to SI, `scale` multiplies channels, `dt`/`rate` stand in for a missing
+        time column (see `dcjax.load_recording`)."""
         from .loading import recording_from_table
 
-        return recording_from_table(df, columns=columns, units=units, model=model, name=name, i_limit=i_limit)
+        return recording_from_table(
+            df, columns=columns, units=units, model=model, name=name, i_limit=i_limit, scale=scale, dt=dt, rate=rate
+        )
 
     def select(self, index) -> "Recording":
         """The samples at `index` (a slice or index array) of every channel."""

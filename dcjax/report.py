@@ -37,6 +37,14 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
         lines.append(f"    data               = {s.get('recording')} (not loaded)")
     lines.append(f"    objective (best)   = {st['best']:.6e}")
     lines.append(f"    objective W/M/SD   = {st['worst']:.4e} / {st['mean']:.4e} / {st['std']:.4e}")
+    lines.append(f"    # fitness evals    = {result.nfev}")
+    lines.append(f"    # data points      = {result.ndata}")
+    lines.append(f"    # variables        = {result.nvarys}")
+    lines.append(f"    chi-square         = {result.chisqr:.6e}")
+    lines.append(f"    reduced chi-square = {result.redchi:.6e}")
+    lines.append(f"    Akaike info crit   = {result.aic:.4f}")
+    lines.append(f"    Bayesian info crit = {result.bic:.4f}")
+    lines.append(f"    success            = {result.success} ({result.message})")
     for rec in result.recordings:
         fits = channel_fit(result, rec)
         lines.append(

@@ -9,19 +9,11 @@ from pathlib import Path
 import numpy as np
 
 from .bounds import Bounds
-from .models import Model, get_model
+from .models import Model, get_model, model_spec
+from .parameters import Parameter, Parameters
 from .problem import make_problem
 from .recording import Recording
 from .space import Space, make_space
-
-
-def model_spec(model: Model) -> str:
-    """A string `get_model` resolves back: a built-in name or `module:Class`."""
-    from .models import MODELS
-
-    if type(model) is MODELS.get(model.name):
-        return model.name
-    return f"{type(model).__module__}:{type(model).__qualname__}"
 
 
 @dataclasses.dataclass
@@ -112,6 +104,76 @@ class IdentificationResult:
         proposed = self.settings["pop_size"] * (self.iterations + 1)
         return {"mean": float(self.dups.mean()), "percent": float(100 * np.mean(self.dups / proposed))}
 
+    # -- lmfit's vocabulary -------------------------------------------------------------------
+    @property
+    def success(self) -> bool:
+        """Every run ended with a finite objective."""
+        return bool(np.all(np.isfinite(self.run_of)))
+
+    @property
+    def message(self) -> str:
+        bad = int(np.sum(~np.isfinite(self.run_of)))
+        if bad == len(self.run_of):
+            return "no run found parameters whose simulation is finite"
+        at = self.at_bound()
+        text = f"{len(self.run_of) - bad}/{len(self.run_of)} runs finished with a finite objective"
+        return text + (f"; at a bound: {', '.join(at)}" if at else "")
+
+    @property
+    def nfev(self) -> int:
+        """Objective evaluations made, all runs together (memory hits not counted)."""
+        return int(np.sum(self.fes))
+
+    @property
+    def ndata(self) -> int:
+        """Residuals: samples times compared channels, over every recording."""
+        n = self.settings.get("ndata")
+        if n is None and self.recordings:
+            n = sum(len(r) * len(self.model.outputs) for r in self.recordings)
+        return int(n or 0)
+
+    @property
+    def nvarys(self) -> int:
+        return len(self.names) - len(self.fixed)
+
+    @property
+    def chisqr(self) -> float:
+        """Sum of the squared residuals of eq. 24/27: the best objective value."""
+        return float(self.of)
+
+    @property
+    def redchi(self) -> float:
+        return self.chisqr / max(1, self.ndata - self.nvarys)
+
+    @property
+    def aic(self) -> float:
+        """Akaike: N ln(chisqr / N) + 2 nvarys (lmfit's definition)."""
+        n = max(1, self.ndata)
+        return float(n * np.log(max(self.chisqr, 1e-300) / n) + 2 * self.nvarys)
+
+    @property
+    def bic(self) -> float:
+        """Bayesian: N ln(chisqr / N) + ln(N) nvarys."""
+        n = max(1, self.ndata)
+        return float(n * np.log(max(self.chisqr, 1e-300) / n) + np.log(n) * self.nvarys)
+
+    @property
+    def parameters(self) -> Parameters:
+        """The best values as `Parameters`: bounds, vary (False for the fixed ones), units and,
+        after `uncertainty()`, standard errors."""
+        b = self.bounds
+        u = self._uncertainty
+        out = []
+        for k, n in enumerate(self.names):
+            se = None
+            if u is not None and n not in self.fixed:
+                se = float(u.se[n])  # pyright: ignore[reportAttributeAccessIssue]
+            out.append(
+                Parameter(n, value=self.params[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
+                          unit=self.model.units.get(n, ""), stderr=se)
+            )  # fmt: skip
+        return Parameters(out)
+
     @property
     def mean_params(self) -> dict[str, float]:
         """Mean of each parameter over runs (Table 6)."""
@@ -154,6 +216,16 @@ class IdentificationResult:
             "fixed": self.fixed,
             "free": [n for n in names if n not in self.fixed],
             "at_bound": self.at_bound(),
+            "statistics": {
+                "success": self.success,
+                "nfev": self.nfev,
+                "ndata": self.ndata,
+                "nvarys": self.nvarys,
+                "chisqr": self.chisqr,
+                "redchi": self.redchi,
+                "aic": self.aic,
+                "bic": self.bic,
+            },
             "history_best": [float(np.nanmin(h)) if np.any(np.isfinite(h)) else None for h in self.history],
             "dcjax_version": __version__,
         }
@@ -185,6 +257,9 @@ class IdentificationResult:
 
     def __str__(self) -> str:
         return self.report()
+
+
+FitResult = IdentificationResult  # the 0.2 name
 
 
 def load_result(path: str | Path, recordings: list[Recording] | None = None, model: Model | str | None = None) -> IdentificationResult:

@@ -40,15 +40,67 @@ def parse_mapping(text: str | None, what: str) -> dict[str, str]:
     return out
 
 
+def sample_times(n: int, dt: float | None = None, rate: float | None = None) -> np.ndarray:
+    """t = k dt (k = 0 .. n-1) for a file without a time column; `rate` (Hz) gives dt = 1/rate."""
+    if dt is not None and rate is not None:
+        raise ValueError("give either dt (s) or rate (Hz) for a file without a time column, not both")
+    step = dt if dt is not None else None if rate is None else 1.0 / _positive(rate, "rate")
+    step = _positive(step, "dt")
+    return np.arange(n) * step
+
+
+def _positive(v, what: str) -> float:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        f = float("nan")
+    if not (np.isfinite(f) and f > 0):
+        raise ValueError(f"{what} must be a positive number, got {v!r}")
+    return f
+
+
+def scale_factors(scale: dict | None, known: tuple[str, ...], where: str = "") -> dict[str, float]:
+    """Channel -> finite non-zero factor (applied after unit conversion: value_SI = value x factor)."""
+    out = {}
+    for c, f in (scale or {}).items():
+        if c not in known:
+            raise ValueError(f"{where}scale: unknown channel {c!r}; this model's channels are {', '.join(known)}")
+        try:
+            out[c] = float(f)
+        except (TypeError, ValueError):
+            out[c] = float("nan")
+        if not (np.isfinite(out[c]) and out[c] != 0):
+            raise ValueError(f"{where}scale of {c} must be a finite non-zero number, got {f!r}")
+    return out
+
+
 def select_channels(
-    table: dict[str, np.ndarray], needed: tuple[str, ...], columns: dict | None, units: dict | None, quantities: dict, where: str = ""
+    table: dict[str, np.ndarray],
+    needed: tuple[str, ...],
+    columns: dict | None,
+    units: dict | None,
+    quantities: dict,
+    where: str = "",
+    scale: dict | None = None,
+    dt: float | None = None,
+    rate: float | None = None,
 ) -> dict[str, np.ndarray]:
     """Channels `needed` (and `t`) from `table` (column name -> values; columns may be named by
-    header or by 0-based index), converted to SI with `units` (channel -> unit name)."""
+    header or by 0-based index), converted to SI with `units` (channel -> unit name), then
+    multiplied by `scale` (channel -> factor: a gear ratio, a wheel radius, a sensor gain). With
+    `dt` (s) or `rate` (Hz) the time is t = k dt and the table needs no time column."""
     columns = dict(columns or {})
     units = dict(units or {})
     headers = list(table)
     known = ("t", *needed)
+    factors = scale_factors(scale, known, where)
+    if dt is not None or rate is not None:
+        if "t" in columns or "t" in factors:
+            raise ValueError(f"{where}dt/rate replace the time column: do not map or scale t as well")
+        n = len(next(iter(table.values()))) if table else 0
+        table = {**table, "\0t": sample_times(n, dt, rate)}
+        columns["t"] = "\0t"
+        units.pop("t", None)
     bad = [c for c in (*columns, *units) if c not in known]
     if bad:
         raise ValueError(
@@ -65,9 +117,10 @@ def select_channels(
                 raise ValueError(f"{where}column index {k} for {c} is out of range (the file has {len(headers)} columns)")
             col = table[headers[k]]
         else:
+            hint = " or give the sample time with dt/--dt or rate/--rate" if c == "t" else ""
             raise ValueError(
-                f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns/--columns {c}=NAME)"
+                f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns/--columns {c}=NAME{hint})"
             )
         factor = unit_factor(c, units[c], "time" if c == "t" else quantities.get(c)) if c in units else 1.0
-        out[c] = np.asarray(col, dtype=np.float64) * factor
+        out[c] = np.asarray(col, dtype=np.float64) * factor * factors.get(c, 1.0)
     return out

@@ -6,15 +6,26 @@ import nbformat
 import pytest
 from nbclient import NotebookClient
 
-NOTEBOOKS = sorted((Path(__file__).resolve().parent.parent / "notebooks").glob("*.ipynb"))
+ROOT = Path(__file__).resolve().parent.parent
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+EMPS = ROOT.parent / "shared" / "real" / "emps"  # the benchmark's data beside the checkout (CI has it)
 
 
 def test_there_are_notebooks():
-    assert {p.name for p in NOTEBOOKS} >= {"quickstart.ipynb", "controlled_drive.ipynb", "results_browser.ipynb"}
+    assert {p.name for p in NOTEBOOKS} >= {
+        "quickstart.ipynb",
+        "controlled_drive.ipynb",
+        "results_browser.ipynb",
+        "real_benchmark_emps.ipynb",
+    }
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs(path, tmp_path, monkeypatch):
+    if path.name == "real_benchmark_emps.ipynb":  # it asserts IDIM-LS within 1 % and Fv, Fc, offset within 5 %
+        if not (EMPS / "DATA_EMPS.mat").is_file():
+            pytest.skip(f"EMPS data not in {EMPS}")
+        monkeypatch.setenv("DCJAX_EMPS_DIR", str(EMPS))
     monkeypatch.setenv("DCJAX_NB_BUDGET", "1400")
     monkeypatch.setenv("DCJAX_NB_RUNS", "2")
     monkeypatch.setenv("DCJAX_STORE", str(tmp_path / "absent.jsonl"))  # the browser builds its own demo store

@@ -1,7 +1,12 @@
 """Motor and drive models behind one protocol (`Model`); `get_model` resolves a built-in name
-(`"dc"`, the paper's model and the default, or `"dc-coulomb"`) or a `package.module:attr` path."""
+(`"dc"`, the paper's model and the default, or `"dc-coulomb"`), a `package.module:attr` path or a
+`path/to/file.py:attr`."""
 
+import hashlib
 import importlib
+import importlib.util
+import sys
+from pathlib import Path
 
 from .base import Model
 from .dc import DC, DCCoulomb
@@ -24,10 +29,11 @@ def get_model(model: "str | Model | type[Model] | None" = None) -> Model:
         return MODELS[model.lower()]()
     if ":" not in model:
         raise ValueError(f"unknown model {model!r}; built-in models are {sorted(MODELS)}, or give 'package.module:attr'")
-    mod_name, _, attr = model.partition(":")
+    mod_name, _, attr = model.rpartition(":")
     try:
-        obj = getattr(importlib.import_module(mod_name), attr)
-    except (ImportError, AttributeError) as e:
+        module = _import_file(mod_name) if mod_name.endswith(".py") else importlib.import_module(mod_name)
+        obj = getattr(module, attr)
+    except (ImportError, AttributeError, SyntaxError) as e:
         raise ValueError(f"cannot import model {model!r}: {e}") from None
     if callable(obj) and not isinstance(obj, Model) and not (isinstance(obj, type) and issubclass(obj, Model)):
         obj = obj()
@@ -38,4 +44,39 @@ def get_model(model: "str | Model | type[Model] | None" = None) -> Model:
     return obj
 
 
-__all__ = ["DC", "DCCoulomb", "MODELS", "Model", "get_model"]
+FILE_MODULE_PREFIX = "dcjax_model_file_"
+
+
+def _import_file(path: str):
+    """The module defined by a `.py` file, imported once per file (under a name derived from its
+    absolute path, so `model_spec` can name the file again)."""
+    file = Path(path).expanduser().resolve()
+    if not file.is_file():
+        raise ImportError(f"no such file: {path}")
+    name = FILE_MODULE_PREFIX + hashlib.sha1(str(file).encode()).hexdigest()[:12]
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, file)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"cannot load {path} as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
+
+
+def model_spec(model: Model) -> str:
+    """A string `get_model` resolves back: a built-in name, `module:Class` or `file.py:Class`."""
+    if type(model) is MODELS.get(model.name):
+        return model.name
+    module = type(model).__module__
+    if module.startswith(FILE_MODULE_PREFIX):
+        return f"{sys.modules[module].__file__}:{type(model).__qualname__}"
+    return f"{module}:{type(model).__qualname__}"
+
+
+__all__ = ["DC", "DCCoulomb", "MODELS", "Model", "get_model", "model_spec"]

@@ -14,7 +14,12 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
 - `coefficients(p)`: hoisted per-simulation quantities (1/La, Ra/La, ...) from the parameter dict;
 - `vector_field(c, u, y)`: dy/dt as a tuple, from the coefficients, the inputs and the states;
 - optionally `steady_state(p, channels)`: the model's stationary relations (dy/dt = 0) as
-  predicted channel values, used by `dcjax.validation.stationary_check` (paper eq. 25–26).
+  predicted channel values, used by `dcjax.validation.stationary_check` (paper eq. 25–26);
+- optionally `regression(y, dy, u)`: the state equations written linear in the parameters, for
+  the equation-error first estimate (`dcjax.initial_estimate`); without it that estimate runs
+  Levenberg–Marquardt on the derivative residual;
+- `derivative_of`: states that are the time derivative of another state (`{"v": "q"}`: v = dq/dt),
+  so a first estimate can differentiate a measured position when the velocity is not measured.
 """
 
 from typing import Any, ClassVar
@@ -23,6 +28,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
+
+from ..parameters import Parameter, Parameters
 
 
 class Model(eqx.Module):
@@ -37,6 +44,7 @@ class Model(eqx.Module):
     precision: ClassVar[dict[str, float] | None] = None
     limited_state: ClassVar[str | None] = None
     quantities: ClassVar[dict[str, str]] = {}  # channel -> quantity ("voltage", ...) for unit conversion
+    derivative_of: ClassVar[dict[str, str]] = {}  # state -> the state it is the time derivative of
 
     # -- what a model defines -------------------------------------------------------------
     def coefficients(self, p: dict[str, Array]) -> Any:
@@ -45,6 +53,12 @@ class Model(eqx.Module):
 
     def vector_field(self, c: Any, u: tuple[Array, ...], y: tuple[Array, ...]) -> tuple[Array, ...]:
         raise NotImplementedError
+
+    def regression(self, y: dict[str, np.ndarray], dy: dict[str, np.ndarray], u: dict[str, np.ndarray]) -> list | None:
+        """The state equations linear in the parameters, one entry per equation:
+        `(columns, rhs, mass)` with sum_k theta_k columns[k] = rhs, and `mass` the parameter that
+        multiplies the state's derivative (it scales the equation's error). None: not linear."""
+        return None
 
     def steady_state(self, p: dict[str, float], channels: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Channel values the model predicts in stationary operation from the other channels."""
@@ -116,6 +130,24 @@ class Model(eqx.Module):
             raise ValueError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(self.bounds)}")
         b = self.bounds[key]
         return np.array([b[n][0] for n in self.names], float), np.array([b[n][1] for n in self.names], float)
+
+    def parameters(self, preset: str | None = None) -> Parameters:
+        """`Parameters` from a bounds preset (default the model's first; none: unbounded), with
+        the model's units and memory precisions; no values."""
+        lo, hi = self.bound_arrays(preset) if self.bounds or preset is not None else (None, None)
+        prec = self.precision or {}
+        return Parameters(
+            [
+                Parameter(
+                    n,
+                    min=-np.inf if lo is None else float(lo[k]),
+                    max=np.inf if hi is None else float(hi[k]),
+                    unit=self.units.get(n, ""),
+                    precision=prec.get(n),
+                )
+                for k, n in enumerate(self.names)
+            ]
+        )
 
     def precision_array(self) -> np.ndarray:
         if self.precision is None:

@@ -108,6 +108,20 @@ class DC(Model):
     def load_torque(self, p, w):
         return p["Tla"] + p["Tlb"] * w + p["Tlc"] * w * w
 
+    def load_regressors(self, w):
+        """The columns of Tla, Tlb, Tlc in the load torque (eq. 5): 1, w, w^2."""
+        return np.ones_like(w), w, w * w
+
+    def regression(self, y, dy, u):
+        """Eq. 8 times La and eq. 9 times J, linear in the parameters:
+        La di/dt + Ra i + cm w = u_a  and  J dw/dt - cm i + Tla + Tlb w + Tlc w^2 = 0."""
+        i, w = y["i_a"], y["omega"]
+        one, lin, quad = self.load_regressors(w)
+        return [
+            ({"La": dy["i_a"], "Ra": i, "cm": w}, u["u_a"], "La"),
+            ({"J": dy["omega"], "cm": -i, "Tla": one, "Tlb": lin, "Tlc": quad}, np.zeros_like(w), "J"),
+        ]
+
     def steady_state(self, p, channels):
         """Eq. 25–26 (di/dt = dw/dt = 0): u_a = Ra i_a + cm w and i_a = T_load(w) / cm."""
         i, w = channels["i_a"], channels["omega"]
@@ -144,3 +158,6 @@ class DCCoulomb(DC):
 
     def load_torque(self, p, w):
         return p["Tla"] * w / np.sqrt(w * w + self.w_eps**2) + p["Tlb"] * w + p["Tlc"] * w * np.abs(w)
+
+    def load_regressors(self, w):
+        return w / np.sqrt(w * w + self.w_eps**2), w, w * np.abs(w)

@@ -1,0 +1,369 @@
+"""Optimal input design through the differentiable simulator: which test to run next.
+
+For an input profile u(t) and parameters theta, the Fisher information of the measured channels
+y_c(t_k) with independent Gaussian noise sigma_c is
+
+    F = sum_c sum_k s_c,k^T s_c,k / sigma_c^2,      s_c,k = d y_c(t_k) / d log theta   (relative)
+
+(`jax.jacfwd` through the integrator, scaled by the parameters' values, so the criterion does
+not depend on units). Its inverse is the Cramér–Rao bound on the covariance of the relative
+parameters. The input is piecewise constant, one level per hold interval, u = u_min + (u_max -
+u_min) z with z in [0, 1]; the levels are optimized by projected Adam (optax, z clipped to
+[0, 1] after each step, so bang-bang profiles are reached exactly) on the gradient of the
+criterion, vmapped over several starts (mid-range, a full step, a coast-down, a square wave,
+random levels), and the best start is kept:
+
+- `"d"` (default): maximize log det F over the free parameters (D-optimal);
+- `"a"`: minimize trace F^-1, the sum of relative variances (A-optimal);
+- names (`"J,Tla,Tlb,Tlc"`): minimize the sum of the logarithms of those parameters' relative
+  variances (each counts by its factor of improvement; a sum of the variances themselves
+  would be ruled by the largest).
+
+The supply's current limit is the model's clamp inside the simulation, so a designed profile
+respects it by construction (the clamped current carries no information the optimizer could
+exploit beyond the limit)."""
+
+import dataclasses
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .integrate import simulate
+from .models import Model, get_model
+from .problem import Problem, make_problem
+from .recording import Recording
+
+DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
+NULL_TOL = 1e-9  # an eigenvalue of the scaled information below this fraction of the largest: not identifiable
+
+
+@dataclasses.dataclass
+class Design:
+    """A designed input and what it is predicted to give."""
+
+    recording: Recording  # t, the designed input, and the responses simulated at `params`
+    levels: np.ndarray  # (segments,) the input level of each hold interval
+    hold: float
+    criterion: str
+    value: float  # the criterion at the design (log det F for "d", the variance sum otherwise)
+    stderr: dict[str, float]  # predicted standard errors (physical units) of the free parameters
+    noise: dict[str, float]  # sigma per measured channel
+    params: dict[str, float]
+    free: tuple[str, ...]
+    unidentifiable: list[str]  # parameters in a null direction of F (the model structure hides them)
+
+    def relative_stderr(self) -> dict[str, float]:
+        return {n: self.stderr[n] / abs(self.params[n]) if self.params[n] else math.inf for n in self.free}
+
+
+def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u: np.ndarray, i_limit: float | None) -> Problem:
+    """A `Problem` on the grid `t` with the input `u` (the model's first input; others at 0) and
+    the states starting at 0; the measured channels are those simulated at `params`."""
+    chans = {c: np.zeros_like(t) for c in model.inputs}
+    chans[model.inputs[0]] = np.asarray(u, float)
+    for s in model.outputs:  # placeholders (replaced below): zero initial state, a non-zero peak for make_problem
+        chans[s] = np.zeros_like(t)
+        chans[s][-1] = 1.0
+    rec = Recording(t=t, channels=chans, i_a_limit=i_limit)
+    prob = make_problem(rec, model=model, integrator="rk4", nd=2, i_limit=i_limit)
+    x = jnp.asarray([params[n] for n in model.names])
+    sim = simulate(x, prob)
+    return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])
+
+
+def with_input(prob: Problem, u: jax.Array) -> Problem:
+    """The problem with its first input replaced by `u` (N,)."""
+    u_start = prob.u_start.at[:, 0].set(u[:-1])
+    u_end = prob.u_end.at[:, 0].set(u[1:])
+    return eqx.tree_at(lambda p: (p.u_start, p.u_end), prob, (u_start, u_end))
+
+
+def information(prob: Problem, x: jax.Array, free: jax.Array, sigma: jax.Array) -> jax.Array:
+    """F (F x F) of the relative free parameters: sum over samples and channels of s s^T / sigma^2."""
+    outs = jnp.asarray(prob.model.output_index)
+
+    def y_of(logx):
+        xx = x.at[free].set(jnp.exp(logx))
+        return simulate(xx, prob)[:, outs] / sigma  # (N, C)
+
+    s = jax.jacfwd(y_of)(jnp.log(x[free]))  # (N, C, F)
+    s = s.reshape(-1, s.shape[-1])
+    return s.T @ s
+
+
+def criterion_value(F: jax.Array, criterion: str, weights: jax.Array) -> jax.Array:
+    """What the design minimizes: -log det F ("d"), sum_j (F^-1)_jj ("a"), or for named
+    parameters sum_j w_j log (F^-1)_jj ("names": every named parameter's relative variance
+    counts by its factor of improvement, so a small one is not sacrificed to a large one)."""
+    reg = 1e-12 * jnp.trace(F) / F.shape[0] * jnp.eye(F.shape[0])
+    if criterion == "d":
+        return -jnp.linalg.slogdet(F + reg)[1]
+    var = jnp.diag(jnp.linalg.inv(F + reg))
+    if criterion == "a":
+        return jnp.sum(var)
+    return jnp.sum(weights * jnp.log(jnp.maximum(var, 1e-300)))
+
+
+def predicted_stderr(F: np.ndarray, x_free: np.ndarray) -> np.ndarray:
+    """Physical standard errors from the information of the relative parameters (pseudo-inverse)."""
+    cov = np.linalg.pinv(np.asarray(F, float), rcond=1e-13)
+    return np.sqrt(np.maximum(np.diag(cov), 0.0)) * np.abs(x_free)
+
+
+def null_parameters(F: np.ndarray, names: tuple[str, ...]) -> list[str]:
+    """Parameters that dominate a null direction of F (the structure hides them, whatever the input)."""
+    w, v = np.linalg.eigh(np.asarray(F, float))
+    out = []
+    for k in np.flatnonzero(w <= NULL_TOL * max(w.max(), 1e-300)):
+        out += [names[j] for j in np.flatnonzero(np.abs(v[:, k]) > 0.3) if names[j] not in out]
+    return out
+
+
+def _profile(z, segments: int, per: int, n: int, lo: float, hi: float):
+    u = lo + (hi - lo) * jnp.clip(z, 0.0, 1.0)
+    return jnp.repeat(u, per, total_repeat_length=segments * per)[:n]
+
+
+def design_input(
+    model: Model | str | None,
+    params: dict[str, float],
+    *,
+    duration: float,
+    dt: float,
+    u_range: tuple[float, float],
+    hold: float | None = None,
+    i_limit: float | None = None,
+    criterion: str = "d",
+    noise: dict[str, float] | None = None,
+    fixed: tuple[str, ...] = (),
+    starts: int = 8,
+    steps: int = 300,
+    seed: int = 0,
+) -> Design:
+    """Design an input of `duration` s sampled every `dt` s, piecewise constant over `hold` s
+    (default duration / 20), inside `u_range` = (u_min, u_max), for `model` at `params` (name ->
+    value; `fixed` names are known and not designed for), under the supply's `i_limit`.
+    `criterion`: "d", "a" or comma-separated parameter names (module docstring). `noise`: sigma
+    per measured channel (default 1 % of the channel's peak under a full step to u_max; never
+    below 1e-12). `starts` Adam runs of `steps` steps, the
+    random starts from `seed`."""
+    import optax
+
+    m = get_model(model)
+    m.check_names(params)
+    missing = [n for n in m.names if n not in params]
+    if missing:
+        raise ValueError(f"params must give every parameter of model {m.name}; missing {', '.join(missing)}")
+    if not m.inputs:
+        raise ValueError(f"model {m.name} has no input to design")
+    for what, v in (("duration", duration), ("dt", dt)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{what} must be a positive number of seconds, got {v!r}")
+    n = int(round(duration / dt)) + 1
+    if n < 10:
+        raise ValueError(f"duration / dt gives {n} samples; need at least 10")
+    lo, hi = (float(u_range[0]), float(u_range[1]))
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(f"u_range must be (u_min, u_max) with u_min < u_max, got {u_range!r}")
+    hold = duration / 20 if hold is None else float(hold)
+    per = int(round(hold / dt))
+    if per < 1 or per >= n:
+        raise ValueError(f"hold must lie between dt ({dt:g} s) and the duration ({duration:g} s), got {hold!r}")
+    segments = -(-n // per)
+    m.check_names(fixed, "fixed parameter")
+    free_names = tuple(k for k in m.names if k not in fixed and params[k] != 0)
+    if not free_names:
+        raise ValueError("no free parameter with a non-zero value to design for")
+    if criterion in ("d", "a"):
+        weights = np.ones(len(free_names))
+    else:
+        chosen = [c.strip() for c in str(criterion).split(",") if c.strip()]
+        m.check_names(chosen)
+        bad = [c for c in chosen if c not in free_names]
+        if bad:
+            raise ValueError(f"criterion names {bad} are fixed or zero; free are {', '.join(free_names)}")
+        weights = np.array([1.0 if k in chosen else 0.0 for k in free_names])
+    t = np.arange(n) * dt
+    x = jnp.asarray([float(params[k]) for k in m.names])
+    free = jnp.asarray([m.names.index(k) for k in free_names])
+    base = template_problem(m, params, t, np.full(n, hi), i_limit)  # a full step: its peaks set the default noise
+    sigma = _noise(m, base, noise)
+    crit = criterion if criterion in ("d", "a") else "names"
+    w = jnp.asarray(weights)
+
+    def loss(z):
+        prob = with_input(base, _profile(z, segments, per, n, lo, hi))
+        return criterion_value(information(prob, x, free, sigma), crit, w)
+
+    z0 = _starts(segments, starts, seed)
+    opt = optax.adam(0.02)
+
+    def run(z):
+        def body(carry, _):
+            z, state, best_z, best_f = carry
+            f, g = jax.value_and_grad(loss)(z)
+            g = jnp.where(jnp.isfinite(g), g, 0.0)
+            better = jnp.isfinite(f) & (f < best_f)
+            best_z, best_f = jnp.where(better, z, best_z), jnp.where(better, f, best_f)
+            upd, state = opt.update(g, state, z)
+            z = jnp.clip(jnp.asarray(optax.apply_updates(z, upd)), 0.0, 1.0)  # projected onto the range
+            return (z, state, best_z, best_f), None
+
+        (z, state, best_z, best_f), _ = jax.lax.scan(body, (z, opt.init(z), z, jnp.inf), None, length=steps)
+        f = loss(z)
+        better = jnp.isfinite(f) & (f < best_f)
+        return jnp.where(better, z, best_z), jnp.where(better, f, best_f)
+
+    zs, fs = jax.jit(jax.vmap(run))(z0)
+    k = int(np.nanargmin(np.where(np.isfinite(np.asarray(fs)), np.asarray(fs), np.inf)))
+    u = np.asarray(_profile(zs[k], segments, per, n, lo, hi))
+    return summarize(m, params, t, u, i_limit, free_names, sigma, criterion, -float(fs[k]) if crit == "d" else float(fs[k]), hold)
+
+
+def _noise(m: Model, prob: Problem, noise) -> jax.Array:
+    peaks = np.max(np.abs(np.asarray(prob.y_meas)), axis=0)
+    out = []
+    for j, c in enumerate(m.outputs):
+        v = (noise or {}).get(c)
+        v = DEFAULT_NOISE * peaks[j] if v is None else float(v)
+        if not (math.isfinite(v) and v > 0):
+            v = 1e-12
+        out.append(max(v, 1e-12))
+    if noise:
+        m_bad = [c for c in noise if c not in m.outputs]
+        if m_bad:
+            raise ValueError(f"noise: unknown channel(s) {m_bad}; model {m.name} measures {', '.join(m.outputs)}")
+    return jnp.asarray(out)
+
+
+def _starts(segments: int, starts: int, seed: int) -> jax.Array:
+    """Adam's starts as fractions of the range: mid-range, full on, on for 40 % then off (a
+    coast-down), a square wave, then random levels."""
+    k = np.arange(segments)
+    z = [np.full(segments, 0.5), np.ones(segments), (k < max(1, (2 * segments) // 5)).astype(float), (k % 4 < 2).astype(float)]
+    rng = np.random.default_rng(seed)
+    while len(z) < max(starts, 1):
+        z.append(rng.uniform(0.0, 1.0, segments))
+    return jnp.asarray(np.array(z[: max(starts, 1)]))
+
+
+def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, value, hold) -> Design:
+    """The `Design` of input `u` on grid `t`: responses, information, predicted errors."""
+    prob = template_problem(m, params, t, u, i_limit)
+    x = jnp.asarray([float(params[k]) for k in m.names])
+    free = jnp.asarray([m.names.index(k) for k in free_names])
+    F = np.asarray(information(prob, x, free, sigma))
+    se = predicted_stderr(F, np.asarray(x[free]))
+    sim = np.asarray(simulate(x, prob))
+    chans = {m.inputs[0]: np.asarray(u, float), **{s: sim[:, k] for k, s in enumerate(m.states)}}
+    for c in m.inputs[1:]:
+        chans[c] = np.zeros_like(t)
+    rec = Recording(t=t, channels=chans, i_a_limit=i_limit, name="design")
+    per = max(1, int(round(hold / (t[1] - t[0]))))
+    return Design(
+        recording=rec,
+        levels=np.asarray(u)[::per],
+        hold=float(hold),
+        criterion=str(criterion),
+        value=float(value),
+        stderr=dict(zip(free_names, map(float, se))),
+        noise=dict(zip(m.outputs, map(float, np.asarray(sigma)))),
+        params={k: float(params[k]) for k in m.names},
+        free=tuple(free_names),
+        unidentifiable=null_parameters(F, tuple(free_names)),
+    )
+
+
+def evaluate_input(design: Design, model: Model | str | None, u: np.ndarray, t: np.ndarray | None = None) -> Design:
+    """The same parameters, noise and criterion under another input `u` (on the design's grid, or
+    on `t`): predicted standard errors to compare a design with the recording's own input."""
+    m = get_model(model)
+    t = design.recording.t if t is None else np.asarray(t, float)
+    sigma = jnp.asarray([design.noise[c] for c in m.outputs])
+    d = summarize(
+        m, design.params, t, np.asarray(u, float), design.recording.i_a_limit, design.free, sigma, design.criterion, math.nan, design.hold
+    )
+    return d
+
+
+def noise_from_fit(result) -> dict[str, float] | None:
+    """sigma per measured channel from a fit's residuals (rms over its first recording), or None
+    where the fit left none (noise-free data: rms below 1e-9 of the channel's peak)."""
+    rec = result.recording
+    if rec is None:
+        return None
+    sim = result.simulate(rec)
+    m = result.model
+    out = {}
+    for c in m.outputs:
+        y = np.asarray(rec[c])
+        r = float(np.sqrt(np.mean((y - sim[:, m.states.index(c)]) ** 2)))
+        if not r > 1e-9 * np.max(np.abs(y)):
+            return None
+        out[c] = r
+    return out
+
+
+def write_design(design: Design, baselines: dict[str, Design], folder, model) -> list:
+    """`input.csv` (t and the designed input), `design.json` (criterion, levels, predicted
+    standard errors of the design and of each baseline) and `design.png`."""
+    import json
+    from pathlib import Path
+
+    m = get_model(model)
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    rec = design.recording
+    name = m.inputs[0]
+    np.savetxt(folder / "input.csv", np.column_stack([rec.t, rec[name]]), delimiter=",", header=f"t,{name}", comments="", fmt="%.10g")
+
+    def errors(d: Design):
+        return {k: {"stderr": d.stderr[k], "relative": d.relative_stderr()[k]} for k in d.free}
+
+    info = {
+        "criterion": design.criterion,
+        "value": design.value,
+        "hold_s": design.hold,
+        "duration_s": float(rec.t[-1] - rec.t[0]),
+        "dt_s": float(rec.t[1] - rec.t[0]),
+        "levels": design.levels.tolist(),
+        "i_limit": rec.i_a_limit,
+        "noise": design.noise,
+        "params": design.params,
+        "free": list(design.free),
+        "predicted": {"design": errors(design), **{k: errors(b) for k, b in baselines.items()}},
+        "not_identifiable": design.unidentifiable,
+    }
+    (folder / "design.json").write_text(json.dumps(info, indent=2) + "\n")
+    _plot_design(design, baselines, m, folder / "design.png")
+    return [folder / "input.csv", folder / "design.json", folder / "design.png"]
+
+
+def _plot_design(design: Design, baselines: dict[str, Design], m: Model, path) -> None:
+    from matplotlib.figure import Figure
+
+    rec = design.recording
+    chans = [m.inputs[0], *m.outputs]
+    fig = Figure(figsize=(11, 2.4 * (len(chans) + 1)), layout="constrained")
+    axes = fig.subplots(len(chans) + 1, 1, squeeze=False)[:, 0]
+    for ax, c in zip(axes, chans):
+        ax.plot(rec.t, rec[c], "r-", lw=1.2, label="design")
+        for label, b in baselines.items():
+            if len(b.recording) == len(rec):
+                ax.plot(b.recording.t, b.recording[c], lw=0.8, alpha=0.7, label=label)
+        ax.set(ylabel=c, xlabel="t (s)")
+        ax.legend(fontsize=7)
+    ax = axes[-1]
+    k = np.arange(len(design.free))
+    width = 0.8 / (1 + len(baselines))
+    ax.bar(k, [100 * design.relative_stderr()[n] for n in design.free], width, color="tab:red", label="design")
+    for j, (label, b) in enumerate(baselines.items(), start=1):
+        ax.bar(k + j * width, [100 * b.relative_stderr()[n] for n in design.free], width, label=label)
+    ax.set_xticks(k + 0.4 - width / 2, design.free)
+    ax.set(yscale="log", ylabel="predicted rel. std. error (%)")
+    ax.legend(fontsize=7)
+    fig.suptitle(f"designed input ({design.criterion}-criterion, hold {design.hold:g} s)")
+    fig.savefig(path, dpi=110)

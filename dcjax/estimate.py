@@ -1,0 +1,350 @@
+"""A first estimate without a search: equation-error (inverse-model) least squares, IDIM-LS.
+
+The measured states are low-pass filtered forward and backward (zero phase, Butterworth), their
+derivatives taken by central differences, and the model's state equations fitted to them:
+
+    m_e dy_e/dt = f_e(theta, y, u)        for every state equation e
+
+- a model linear in its parameters (`Model.regression`, both DC models) is solved by weighted
+  linear least squares, each equation weighted by 1 / rms(m_e dy_e/dt) (its inertial term, so
+  the weights do not depend on the parameters' overall scale), re-weighted a few times;
+- any other model by Levenberg–Marquardt (optimistix) on the derivative residual
+  (dy/dt - f(theta, y, u)) / rms(dy/dt), non-negative parameters as theta = phi^2, from 64
+  starts (vmapped; the range midpoints and points log-uniform over six decades, fixed seed).
+
+A state the recording lacks but that is the derivative of a measured one (`Model.derivative_of`,
+velocity of a measured position) is obtained by the same filtered differentiation. On the EMPS
+benchmark with the authors' settings (100 Hz, order 4, 50 border samples, decimation by 10) this
+is their `Script_IDIM_LS.m`.
+
+The result is a `Parameters`: values, standard errors (s^2 (A^T W A)^-1 of the regression) and
+automatic search ranges (`auto_range`)."""
+
+import math
+import warnings
+
+import numpy as np
+
+from .models import Model, get_model
+from .parameters import Parameter, Parameters
+from .recording import Recording
+
+CUTOFFS = np.array([0.4, 0.2, 0.1, 0.05, 0.025])  # candidate cutoffs, fractions of the sampling rate
+LM_STARTS = 63  # random LM starts of a model without `regression` (besides the midpoints)
+DETERMINED = 0.5  # relative standard error up to which a parameter counts as seen by the regression
+DECADE = 10.0
+
+
+def _border(fs: float, cutoff: float, n: int) -> int:
+    """Samples dropped at each end: the filter's time scale, fs / cutoff, at most a tenth of them."""
+    return min(int(math.ceil(fs / cutoff)), n // 10)
+
+
+def _output_error(recording: Recording, model: Model, x: np.ndarray) -> float:
+    """OF (eq. 24) of simulating `x` on the recording (RK4, 2 sub-steps); +inf where it blows up."""
+    from .objectives import objective
+    from .problem import make_problem
+
+    if not np.all(np.isfinite(x)):
+        return math.inf
+    f = float(objective(x, make_problem(recording, model=model, integrator="rk4", nd=2)))
+    return f if math.isfinite(f) else math.inf
+
+
+def _filtered(x: np.ndarray, fs: float, cutoff: float, order: int) -> np.ndarray:
+    from scipy.signal import butter, filtfilt
+
+    if cutoff >= 0.5 * fs:
+        return x.copy()
+    b, a = butter(order, cutoff / (0.5 * fs))[:2]  # pyright: ignore[reportOptionalSubscript]
+    return filtfilt(b, a, x)
+
+
+def _uniform(recording: Recording) -> float:
+    return float(np.median(np.diff(recording.t)))
+
+
+def uniformly_sampled(recording: Recording) -> Recording:
+    """The recording itself where its sample time is constant (to 0.1 %), else every channel
+    interpolated linearly onto a grid of its median sample time (the filter and the central
+    differences assume one)."""
+    dt = np.diff(recording.t)
+    h = float(np.median(dt))
+    if np.max(np.abs(dt - h)) <= 1e-3 * h:
+        return recording
+    t = recording.t[0] + h * np.arange(int(np.floor((recording.t[-1] - recording.t[0]) / h)) + 1)
+    return recording.replace(t=t, channels={k: np.interp(t, recording.t, v) for k, v in recording.channels.items()})
+
+
+def filtered_states(recording: Recording, model: Model, cutoff: float | None = None, order: int = 4):
+    """(y, dy): every state of `model` and its derivative from the recording, filtered at
+    `cutoff` Hz (default a tenth of the sampling rate)."""
+    h = _uniform(recording)
+    fs = 1.0 / h
+    cutoff = 0.1 * fs if cutoff is None else float(cutoff)
+    if not cutoff > 0:
+        raise ValueError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
+    y: dict[str, np.ndarray] = {}
+    for s in model.states:
+        if s in recording.channels:
+            y[s] = _filtered(np.asarray(recording[s]), fs, cutoff, order)
+    for s in model.states:  # velocity of a measured position, acceleration of a derived velocity...
+        src = model.derivative_of.get(s)
+        if s not in y and src is not None and src in y:
+            y[s] = np.gradient(y[src], h)
+    missing = [s for s in model.states if s not in y]
+    if missing:
+        raise ValueError(
+            f"{recording._where()}initial_estimate needs every state of model {model.name} measured or the derivative of a measured one; "
+            f"missing {', '.join(missing)} (the recording has {', '.join(recording.channels)})"
+        )
+    dy = {s: np.gradient(y[s], h) for s in model.states}
+    return y, dy
+
+
+def _rows(recording, model, cutoff, order, border, decimate):
+    y, dy = filtered_states(recording, model, cutoff, order)
+    u = {c: np.asarray(recording[c]) for c in model.inputs}
+    n = len(recording)
+    b = int(border)
+    if 2 * b >= n - 3:
+        raise ValueError(f"{recording._where()}border {b} leaves too few of {n} samples")
+    cut = slice(b, n - b if b else None)
+    y, dy, u = ({k: v[cut] for k, v in d.items()} for d in (y, dy, u))
+    return y, dy, u, int(decimate)
+
+
+def _decimated(x: np.ndarray, q: int) -> np.ndarray:
+    if q <= 1:
+        return x
+    from scipy.signal import decimate
+
+    return decimate(x, q)
+
+
+def _scaled_lstsq(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares with the columns scaled to unit norm (the DC regressors span ~10 decades),
+    and the covariance s^2 (A^T A)^-1 of the solution."""
+    norm = np.linalg.norm(A, axis=0)
+    norm = np.where(norm > 0, norm, 1.0)
+    As = A / norm
+    sol, *_ = np.linalg.lstsq(As, b, rcond=None)
+    res = b - As @ sol
+    s2 = float(res @ res) / max(1, A.shape[0] - A.shape[1])
+    cov = np.linalg.pinv(As.T @ As) * s2 / np.outer(norm, norm)
+    return sol / norm, cov
+
+
+def _linear_estimate(model: Model, blocks, q: int):
+    """Weighted linear least squares over the equations; returns (theta, stderr, scale_upper)."""
+    names = model.names
+    P = len(names)
+    mats, rhss, masses = [], [], []
+    for cols, rhs, mass in blocks:
+        model.check_names(cols, "regression column")
+        A = np.zeros((len(rhs), P))
+        for k, c in cols.items():
+            A[:, names.index(k)] = np.broadcast_to(c, rhs.shape)
+        mats.append(np.column_stack([_decimated(A[:, k], q) for k in range(P)]))
+        rhss.append(_decimated(np.asarray(rhs, float), q))
+        masses.append(names.index(mass))
+    seen = np.flatnonzero(np.any(np.concatenate(mats) != 0, axis=0))
+    theta = np.full(P, np.nan)
+    weights = [1.0] * len(mats)
+    for _ in range(6):  # re-weight by each equation's inertial term at the current estimate
+        A = np.concatenate([w * M[:, seen] for w, M in zip(weights, mats)])
+        b = np.concatenate([w * r for w, r in zip(weights, rhss)])
+        theta[seen], _ = _scaled_lstsq(A, b)
+        new = []
+        for M, m in zip(mats, masses):
+            rms = float(np.sqrt(np.mean((theta[m] * M[:, m]) ** 2))) if np.isfinite(theta[m]) else 0.0
+            new.append(1.0 / rms if rms > 0 else 1.0)
+        if np.allclose(new, weights, rtol=1e-6):
+            break
+        weights = new
+    A = np.concatenate([w * M[:, seen] for w, M in zip(weights, mats)])
+    b = np.concatenate([w * r for w, r in zip(weights, rhss)])
+    theta[seen], cov = _scaled_lstsq(A, b)
+    stderr = np.full(P, np.nan)
+    stderr[seen] = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    # A parameter's term cannot outweigh its equation: |theta_k| max|A_k| <= the equation's
+    # largest term (peak torque over peak speed for Tlb, over its square for Tlc).
+    upper = np.full(P, np.inf)
+    for M, r in zip(mats, rhss):
+        terms = [np.max(np.abs(r))] + [
+            abs(theta[j]) * np.max(np.abs(M[:, j])) for j in range(P) if np.isfinite(theta[j]) and np.any(M[:, j])
+        ]
+        peak = max(terms)
+        for k in range(P):
+            colmax = np.max(np.abs(M[:, k]))
+            if colmax > 0:
+                upper[k] = min(upper[k], peak / colmax) if np.isfinite(upper[k]) else peak / colmax
+    return theta, stderr, upper
+
+
+def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters):
+    """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta)."""
+    import jax
+    import jax.numpy as jnp
+    import optimistix as optx
+
+    names = model.names
+    lo, hi = start.lower, start.upper
+    nonneg = np.isfinite(lo) & (lo >= 0)
+    # LM from one start finds local minima: start from the given values, the ranges' midpoints and
+    # LM_STARTS points log-uniform over six decades below each range's width (a fixed seed).
+    frac = np.vstack([np.full(len(names), 0.5), 10.0 ** (-6.0 * np.random.default_rng(0).uniform(size=(LM_STARTS, len(names))))])
+    width = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    x0 = np.where(np.isfinite(lo), lo, 0.0) + frac * width
+    given = np.array([p.value is not None for p in start.values()])
+    x0 = np.where(given, np.array([p.value if p.value is not None else 0.0 for p in start.values()]), x0)
+    phi0 = np.where(nonneg, np.sqrt(np.abs(x0)), x0)
+    Y = tuple(jnp.asarray(_decimated(y[s], q)) for s in model.states)
+    U = tuple(jnp.asarray(_decimated(u[c], q)) for c in model.inputs)
+    DY = [jnp.asarray(_decimated(dy[s], q)) for s in model.states]
+    scale = [1.0 / max(float(jnp.sqrt(jnp.mean(d * d))), 1e-300) for d in DY]
+    nn = jnp.asarray(nonneg)
+
+    def theta(phi):
+        return jnp.where(nn, phi * phi, phi)
+
+    def residual(phi, _):
+        p = model.as_dict(theta(phi))
+        f = model.vector_field(model.coefficients(p), U, Y)
+        return jnp.concatenate([s * (d - fi) for s, d, fi in zip(scale, DY, f)])
+
+    solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
+    solve = jax.jit(jax.vmap(lambda p0: optx.least_squares(residual, solver, p0, max_steps=500, throw=False).value))
+    phis = solve(jnp.asarray(phi0))
+    cost = np.asarray(jax.vmap(lambda p: jnp.sum(residual(p, None) ** 2))(phis))
+    cost = np.where(np.isfinite(cost), cost, np.inf)
+    best = phis[int(np.argmin(cost))]
+    x = np.asarray(theta(best))
+    r = np.asarray(residual(best, None))
+    J = np.asarray(jax.jacfwd(lambda t: residual(jnp.where(nn, jnp.sqrt(jnp.abs(t)), t), None))(jnp.asarray(x)))
+    s2 = float(r @ r) / max(1, r.size - len(names))
+    stderr = np.sqrt(np.maximum(np.diag(np.linalg.pinv(J.T @ J)) * s2, 0.0))
+    return x, stderr, np.full(len(names), np.inf)
+
+
+def auto_range(value: float, stderr: float, nonneg: bool, scale_upper: float, preset: tuple[float, float] | None) -> tuple[float, float]:
+    """The automatic search range of one parameter:
+
+    - seen by the regression (finite value, positive where the parameter is non-negative,
+      relative std. error <= 50 %): a decade either side, [v/10, 10 v], widened to v +- 3 stderr
+      and never below 0 for a non-negative parameter (a signed one: v +- 9|v| +- 3 stderr);
+    - not seen: [0, U] (signed: [-U, U]) with U the recording's own scale for it (its term
+      cannot outweigh its equation's largest term; for Tlb peak torque / peak speed, for Tlc
+      peak torque / peak speed^2), at least 10 |v|;
+    - and where the model has a bounds preset (`preset`), the range is widened to hold it too:
+      the equation error of coarsely sampled or noisy data can be biased far beyond its
+      standard error (on the 7.5 Hz MD analogues La came out 5-14x too large), so `auto` never
+      searches less than the preset, and extends it where the estimate lies outside."""
+    lo, hi = _estimate_range(value, stderr, nonneg, scale_upper)
+    if preset is None:
+        return lo, hi
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return preset
+    return min(lo, preset[0]), max(hi, preset[1])
+
+
+def _estimate_range(value: float, stderr: float, nonneg: bool, scale_upper: float) -> tuple[float, float]:
+    se = stderr if np.isfinite(stderr) else np.inf
+    seen = np.isfinite(value) and (value > 0 or not nonneg) and value != 0 and se <= DETERMINED * abs(value)
+    if seen:
+        if nonneg:
+            return max(0.0, min(value / DECADE, value - 3 * se)), max(value * DECADE, value + 3 * se)
+        w = (DECADE - 1) * abs(value) + 3 * se
+        return value - w, value + w
+    upper = scale_upper
+    if np.isfinite(value):
+        upper = max(upper, DECADE * abs(value)) if np.isfinite(upper) else upper
+    if not (np.isfinite(upper) and upper > 0):
+        return -math.inf, math.inf
+    return (0.0, upper) if nonneg else (-upper, upper)
+
+
+def initial_estimate(
+    recording: Recording,
+    model: Model | str | None = None,
+    *,
+    cutoff: float | None = None,
+    order: int = 4,
+    border: int | None = None,
+    decimate: int = 1,
+    start: Parameters | None = None,
+) -> Parameters:
+    """Equation-error least squares estimate of `model`'s parameters from `recording` (module
+    docstring). `cutoff` (Hz) and `order` of the zero-phase Butterworth filter; by default the
+    estimate is made at 0.4, 0.2, 0.1, 0.05 and 0.025 times the sampling rate and the one whose
+    simulation fits the recording best (OF, eq. 24) is kept. `border` samples dropped at each end
+    (default the filter's time scale, fs / cutoff); `decimate` the regression rows (scipy.signal.decimate, zero phase) as IDIM-LS
+    does. `start`: the LM start and sign conventions for a model without `regression` (default
+    the model's preset). Returns `Parameters`: value, stderr, and `min`/`max` by `auto_range`."""
+    m = get_model(model)
+    if not isinstance(recording, Recording):
+        raise ValueError("recording must be a dcjax.Recording")
+    scored = recording
+    recording = uniformly_sampled(recording)
+    for name, v in (("order", order), ("decimate", decimate)):
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    fs = 1.0 / _uniform(recording)
+    if cutoff is not None and not (isinstance(cutoff, (int, float, np.number)) and cutoff > 0):
+        raise ValueError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
+    if border is not None and (not isinstance(border, (int, np.integer)) or isinstance(border, bool) or border < 0):
+        raise ValueError(f"border must be a non-negative integer, got {border!r}")
+    base = start if start is not None else m.parameters() if m.bounds else Parameters([Parameter(n) for n in m.names])
+    nonneg = np.array([math.isfinite(p.min) and p.min >= 0 for p in base.values()])
+
+    def solve(c):
+        y, dy, u, q = _rows(recording, m, c, order, border if border is not None else _border(fs, c, len(recording)), decimate)
+        blocks = m.regression(y, dy, u)
+        return _linear_estimate(m, blocks, q) if blocks is not None else _lm_estimate(m, y, dy, u, q, base)
+
+    if cutoff is not None:
+        theta, stderr, upper = solve(float(cutoff))
+    else:  # the cutoff whose estimate simulates the recording best (output error, eq. 24)
+        tried = [(c, solve(c)) for c in CUTOFFS * fs]
+        scores = [_output_error(scored, m, np.where(nonneg, np.maximum(est[0], 0.0), est[0])) for _, est in tried]
+        theta, stderr, upper = tried[int(np.argmin(scores))][1]
+    out = []
+    for k, n in enumerate(m.names):
+        b = base[n]
+        preset = (b.min, b.max) if math.isfinite(b.min) and math.isfinite(b.max) else None
+        lo, hi = auto_range(float(theta[k]), float(stderr[k]), bool(nonneg[k]), float(upper[k]), preset)
+        v = float(theta[k])
+        value = v if np.isfinite(v) and (v >= 0 or not nonneg[k]) else None
+        se = float(stderr[k]) if np.isfinite(stderr[k]) else None
+        out.append(Parameter(n, value=value, min=lo, max=hi, unit=m.units.get(n, ""), precision=b.precision, stderr=se))
+    return Parameters(out)
+
+
+def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | None = None):
+    """`bounds="auto"`: (Bounds, start values) from `initial_estimate` of each recording — the
+    union of their ranges, and the first recording's values as start values (they seed the
+    initial population)."""
+    from .bounds import Bounds
+
+    m = get_model(model)
+    recs = recordings if isinstance(recordings, (list, tuple)) else [recordings]
+    ests = []
+    for r in recs:
+        try:
+            ests.append(initial_estimate(r, m))
+        except ValueError as e:  # e.g. a state neither measured nor a derivative: the preset, said once
+            if not m.bounds:
+                raise ValueError(f"bounds auto: {e}") from None
+            warnings.warn(
+                f"bounds auto: {e}; using the model's preset {next(iter(m.bounds))} for {r.name or 'this recording'}", stacklevel=2
+            )
+            ests.append(m.parameters())
+    lo = np.min([e.lower for e in ests], axis=0)
+    hi = np.max([e.upper for e in ests], axis=0)
+    bad = [n for n, a, b in zip(m.names, lo, hi) if not (math.isfinite(a) and math.isfinite(b))]
+    if bad:
+        raise ValueError(
+            f"bounds auto: no range for {', '.join(bad)} (not seen by the regression and model {m.name} has no preset); give them with --bound/bounds"
+        )
+    start = {n: v for n, v in ests[0].start.items() if lo[m.names.index(n)] <= v <= hi[m.names.index(n)]}
+    return Bounds(lo, hi, m.names), start, ests

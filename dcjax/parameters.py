@@ -1,0 +1,161 @@
+"""`Parameters` (lmfit vocabulary): the one place a parameter's facts live — its value, search
+range `min`/`max`, whether it is searched (`vary`), its unit, the memory-assistance precision
+(paper Table 29) and, after an uncertainty analysis or an equation-error estimate, its `stderr`.
+
+    params = dcjax.DC().parameters("table8")
+    params["Tlc"].set(value=0.0, vary=False)
+    params["Ra"].set(min=0.0, max=10.0)
+"""
+
+import dataclasses
+import math
+from collections.abc import Iterator, Mapping, Sequence
+
+import numpy as np
+
+_UNSET = object()
+
+
+@dataclasses.dataclass
+class Parameter:
+    """One parameter: `value` (None: not known; a varying parameter's value seeds the search),
+    range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`."""
+
+    name: str
+    value: float | None = None
+    min: float = -math.inf
+    max: float = math.inf
+    vary: bool = True
+    unit: str = ""
+    precision: float | None = None
+    stderr: float | None = None
+
+    def set(self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET) -> "Parameter":
+        """Change fields by keyword (lmfit's `Parameter.set`); returns the parameter."""
+        for field, v in (("value", value), ("min", min), ("max", max), ("precision", precision), ("stderr", stderr)):
+            if v is _UNSET:
+                continue
+            if v is not None or field in ("value", "precision", "stderr"):
+                v = None if v is None else _number(v, f"{self.name}.{field}", allow_inf=field in ("min", "max"))
+            setattr(self, field, v)
+        if vary is not _UNSET:
+            if not isinstance(vary, (bool, np.bool_)):
+                raise ValueError(f"{self.name}.vary must be True or False, got {vary!r}")
+            self.vary = bool(vary)
+        return self
+
+    @property
+    def relative_stderr(self) -> float | None:
+        if self.stderr is None or self.value is None:
+            return None
+        return self.stderr / abs(self.value) if self.value else math.inf
+
+
+def _number(v, what: str, allow_inf: bool = False) -> float:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a number, got {v!r}") from None
+    if math.isnan(f) or (math.isinf(f) and not allow_inf):
+        raise ValueError(f"{what} must be a finite number, got {v!r}")
+    return f
+
+
+class Parameters(Mapping[str, Parameter]):
+    """An ordered name -> `Parameter` mapping in a model's parameter order."""
+
+    def __init__(self, parameters: "Sequence[Parameter] | Parameters" = ()):
+        self._items = {p.name: dataclasses.replace(p) for p in (parameters.values() if isinstance(parameters, Parameters) else parameters)}
+
+    def __getitem__(self, name: str) -> Parameter:
+        try:
+            return self._items[name]
+        except KeyError:
+            raise KeyError(f"no parameter {name!r}; the parameters are {', '.join(self._items)}") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __repr__(self) -> str:
+        return f"Parameters({', '.join(f'{n}={p.value!r}' for n, p in self._items.items())})"
+
+    def copy(self) -> "Parameters":
+        return Parameters(self)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self._items)
+
+    def valuesdict(self) -> dict[str, float | None]:
+        return {n: p.value for n, p in self._items.items()}
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([p.min for p in self._items.values()], float)
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([p.max for p in self._items.values()], float)
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """Name -> value of the parameters that are not searched."""
+        out = {}
+        for n, p in self._items.items():
+            if not p.vary:
+                if p.value is None:
+                    raise ValueError(f"parameter {n} is fixed (vary=False) but has no value")
+                out[n] = float(p.value)
+        return out
+
+    @property
+    def start(self) -> dict[str, float]:
+        """Values of the searched parameters that have one (they seed the initial population)."""
+        return {n: float(p.value) for n, p in self._items.items() if p.vary and p.value is not None}
+
+    @property
+    def precision(self) -> dict[str, float] | None:
+        prec = {n: p.precision for n, p in self._items.items()}
+        return None if any(v is None for v in prec.values()) else prec  # pyright: ignore[reportReturnType]
+
+    def check(self, names: tuple[str, ...], model_name: str = "the model") -> None:
+        """The parameters must be exactly `names`, with finite ranges min <= max for the searched ones."""
+        if tuple(self._items) != tuple(names):
+            raise ValueError(f"params must name {model_name}'s parameters {', '.join(names)} in order, got {', '.join(self._items)}")
+        for n, p in self._items.items():
+            if p.vary and not (math.isfinite(p.min) and math.isfinite(p.max)):
+                raise ValueError(f"parameter {n} needs a finite min and max to be searched, got [{p.min}, {p.max}]")
+            if p.vary and p.min > p.max:
+                raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
+
+    def to_dict(self) -> dict[str, dict]:
+        def clean(v):
+            return None if isinstance(v, float) and not math.isfinite(v) else v
+
+        return {n: {k: clean(v) for k, v in dataclasses.asdict(p).items() if k != "name"} for n, p in self._items.items()}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Mapping]) -> "Parameters":
+        out = []
+        for n, f in d.items():
+            f = dict(f)
+            f["min"] = -math.inf if f.get("min") is None else f["min"]
+            f["max"] = math.inf if f.get("max") is None else f["max"]
+            out.append(Parameter(name=n, **f))
+        return cls(out)
+
+    def table(self) -> str:
+        """A fixed-width table: value, std. error, range, vary, unit."""
+        lines = [f"{'name':>6} {'value':>13} {'stderr':>10} {'rel.':>8} {'min':>11} {'max':>11} {'vary':>5} unit"]
+        for n, p in self._items.items():
+            v = "-" if p.value is None else f"{p.value:.6g}"
+            se = "-" if p.stderr is None else f"{p.stderr:.3g}"
+            rel = p.relative_stderr
+            r = "-" if rel is None else f"{100 * rel:.1f}%" if math.isfinite(rel) else "inf"
+            lines.append(f"{n:>6} {v:>13} {se:>10} {r:>8} {p.min:>11.4g} {p.max:>11.4g} {str(p.vary):>5} {p.unit}")
+        return "\n".join(lines)
+
+    __str__ = table

@@ -1,0 +1,106 @@
+"""Optimal input design (`dcjax.design`): the Fisher information against finite differences of
+the independent NumPy integrator, the limits a design must respect, the predicted gain over the
+paper's step, the null directions, and the `dcjax design` command."""
+
+import json
+from typing import ClassVar
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import dcjax
+from dcjax import cli, datasets
+from dcjax.design import design_input, evaluate_input, information, null_parameters, template_problem
+from dcjax.reference import simulate_numpy
+
+SD1 = datasets.true_params("SD1")
+NAMES = dcjax.DC.names
+FAST = dict(starts=4, steps=40)
+
+
+def test_information_matches_finite_differences_of_the_numpy_integrator():
+    t = np.arange(201) * 1e-4
+    u = np.where(t < 0.01, 220.0, 0.0)
+    x = np.array([SD1[n] for n in NAMES])
+    sigma = np.array([0.05, 4.0])
+    prob = template_problem(dcjax.DC(), SD1, t, u, None)
+    F = np.asarray(information(prob, jnp.asarray(x), jnp.arange(7), jnp.asarray(sigma)))
+    cols = []
+    for k in range(7):  # d y / d log x_k by central differences, RK4 with 2 sub-steps (the design's)
+        h = 1e-6
+        up, dn = x.copy(), x.copy()
+        up[k] *= np.exp(h)
+        dn[k] *= np.exp(-h)
+        d = (simulate_numpy(up, t, u, nd=2) - simulate_numpy(dn, t, u, nd=2)) / (2 * h)
+        cols.append((d / sigma).ravel())
+    S = np.column_stack(cols)
+    np.testing.assert_allclose(F, S.T @ S, rtol=1e-5, atol=1e-6 * np.abs(F).max())
+
+
+def test_design_respects_range_hold_and_current_limit():
+    d = design_input("dc", SD1, duration=0.02, dt=1e-4, u_range=(-50.0, 150.0), hold=2e-3, i_limit=1.5, **FAST)
+    u = d.recording.u_a
+    assert u.min() >= -50.0 - 1e-9 and u.max() <= 150.0 + 1e-9
+    per = 20
+    for k in range(0, len(u), per):
+        assert np.ptp(u[k : k + per]) == 0.0  # one level per hold interval
+    assert np.max(np.abs(d.recording.i_a)) <= 1.5 + 1e-12
+    assert len(d.levels) == -(-len(u) // per)
+
+
+def test_design_beats_the_papers_step_in_the_prediction():
+    d = design_input("dc", SD1, duration=0.05, dt=1e-4, u_range=(0.0, 220.0), hold=2.5e-3, **FAST)
+    step = evaluate_input(d, "dc", np.full_like(d.recording.t, 220.0))
+    for n in ("J", "Tla", "Tlb", "Tlc"):
+        assert d.stderr[n] < 0.5 * step.stderr[n], n
+    assert d.unidentifiable == []
+
+
+def test_a_parameter_the_structure_hides_is_named():
+    class Product(dcjax.Model):  # only a * b enters the dynamics
+        names: ClassVar = ("a", "b", "c")
+        states: ClassVar = ("y",)
+        inputs: ClassVar = ("u",)
+        bounds: ClassVar = {"default": {"a": (0, 10), "b": (0, 10), "c": (0, 10)}}
+
+        def vector_field(self, c, u, y):
+            return (-c["a"] * c["b"] * y[0] + c["c"] * u[0],)
+
+    d = design_input(Product(), {"a": 2.0, "b": 3.0, "c": 1.0}, duration=1.0, dt=0.01, u_range=(0, 1), hold=0.1, **FAST)
+    assert set(d.unidentifiable) == {"a", "b"}
+    F = np.eye(2)
+    assert null_parameters(F, ("p", "q")) == []
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"u_range": (1.0, 0.0)}, "u_min < u_max"),
+        ({"hold": 1.0}, "hold must lie between"),
+        ({"criterion": "Xa"}, "unknown parameter"),
+        ({"noise": {"speed": 1.0}}, "unknown channel"),
+        ({"duration": -1.0}, "duration must be a positive"),
+    ],
+)
+def test_design_errors_are_clear(kw, match):
+    args = dict(duration=0.01, dt=1e-4, u_range=(0.0, 220.0), **FAST)
+    args.update(kw)
+    with pytest.raises(ValueError, match=match):
+        design_input("dc", SD1, **args)
+
+
+def test_cli_design_writes_the_three_files(tmp_path, capsys):
+    assert cli.main(["fit", "SD1", "--runs", "2", "--out", str(tmp_path / "fit")]) == 0
+    args = ["design", str(tmp_path / "fit" / "result.json"), "--duration", "0.05", "--dt", "1e-4", "--umin", "0", "--umax", "220"]
+    assert cli.main([*args, "--hold", "2.5e-3", "--starts", "4", "--steps", "40", "--out", str(tmp_path / "d")]) == 0
+    out = capsys.readouterr().out
+    assert "predicted relative std. errors" in out
+    t, u = np.loadtxt(tmp_path / "d" / "input.csv", delimiter=",", skiprows=1).T
+    assert len(t) == 501 and u.min() >= 0 and u.max() <= 220
+    info = json.loads((tmp_path / "d" / "design.json").read_text())
+    pred = info["predicted"]
+    for n in ("J", "Tla", "Tlb", "Tlc"):
+        assert pred["design"][n]["stderr"] < pred["recording SD1"][n]["stderr"]
+    assert (tmp_path / "d" / "design.png").stat().st_size > 0
+    assert cli.main([*args, "--hold", "1", "--out", str(tmp_path / "e")]) == 2

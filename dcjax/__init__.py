@@ -11,16 +11,9 @@ runs sharded over the cores) and time loops compiled as one function, call
 ``dcjax.use_host_devices()`` and ``dcjax.use_compiled_loops()`` before any JAX computation.
 """
 
-from importlib.metadata import PackageNotFoundError, version
-
 import jax
 
 jax.config.update("jax_enable_x64", True)
-
-try:
-    __version__ = version("dcjax")
-except PackageNotFoundError:  # a source tree that was not installed
-    __version__ = "0+unknown"
 
 from .bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
@@ -28,15 +21,15 @@ from .each import FailedFit, fit_each  # noqa: E402
 from .estimate import initial_estimate  # noqa: E402
 from .fit import LTMA, RK4, STMA, AutoSubsteps, Euler, IndexedLTMA, fit, with_weights  # noqa: E402
 from .identify import identify  # noqa: E402
-from .integrate import simulate  # noqa: E402
 from .loading import load_recording  # noqa: E402
 from .models import DC, MODELS, DCCoulomb, Model, get_model  # noqa: E402
-from .objectives import Problem, make_problem, objective, residuals  # noqa: E402
+from .objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
 from .parameters import Parameter, Parameters  # noqa: E402
 from .params import PARAM_NAMES, Params  # noqa: E402
 from .recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
 from .result import FitResult, IdentificationResult, load_result  # noqa: E402
 from .space import Space, make_space  # noqa: E402
+from .version import __version__  # noqa: E402
 
 __all__ = [
     "__version__",

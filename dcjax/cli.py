@@ -59,8 +59,8 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from . import __version__
     from .strategies import METHODS
+    from .version import __version__
 
     p = argparse.ArgumentParser(prog="dcjax", description="Motor and drive parameter identification (Jesenik et al. 2020).")
     p.add_argument("--version", action="version", version=f"dcjax {__version__}")

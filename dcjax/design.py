@@ -31,8 +31,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .integrate import simulate
 from .models import Model, get_model
+from .objectives import simulate
 from .problem import Problem, make_problem
 from .recording import Recording
 

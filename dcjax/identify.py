@@ -12,6 +12,7 @@ from .bounds import Bounds, resolve_bounds
 from .kernel import kernel_mode
 from .models import Model, get_model
 from .objectives import objective
+from .precision import physical_precision, unit_precision
 from .problem import check_positive_int, make_problem
 from .recording import Recording
 from .result import IdentificationResult, model_spec
@@ -19,7 +20,7 @@ from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_
 from .space import Space, make_space
 from .strategies import Strategy, make_strategy
 from .strategies.base import FitnessFn, iteration_limit, run_batch
-from .strategies.memory import MEMORY_KINDS, physical_precision, unit_precision
+from .strategies.memory import MEMORY_KINDS
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
 # (other weights, bounds or recordings of equal length) reuse them.
@@ -130,6 +131,118 @@ def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
     return out
 
 
+def _search_space(recordings, model, bounds, fixed, x0):
+    """(bounds, space, start values, start values in the unit cube); `bounds="auto"` estimates
+    the ranges (`dcjax.estimate.auto_bounds`) and, where no `x0` is given, seeds the search with
+    the estimate."""
+    if isinstance(bounds, str) and bounds.lower() == "auto":
+        from .estimate import auto_bounds
+
+        bounds, start, _ = auto_bounds(recordings, model)
+        x0 = x0 if x0 is not None else {n: v for n, v in start.items() if n not in (fixed or {})} or None
+    b = resolve_bounds(model, bounds)
+    space = make_space(model, b, fixed)
+    return b, space, x0, start_values(x0, model, space)
+
+
+def _check_search(runs, budget, pop_size, seed, memory, generations) -> None:
+    for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
+        check_positive_int(name, v)
+    if budget < pop_size:
+        raise ValueError(f"budget ({budget}) must be at least one population ({pop_size})")
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
+        raise ValueError(f"seed must be an integer, got {seed!r}")
+    if memory is not None and memory not in MEMORY_KINDS:
+        raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {memory!r}")
+    if generations is not None:
+        check_positive_int("generations", generations)
+
+
+def _run_all(strategy, budget, memory, generations, jw, space, data, runs: int, seed: int, progress):
+    """Every run in one compiled call (each device its share), with progress reports; returns the
+    runs' outputs (padding dropped) and the timing."""
+    problems, prec, z0 = data
+    devices = jax.devices() if runs > 1 else jax.devices()[:1]
+    mesh = mesh_of(devices, "runs")
+    keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
+    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
+    cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), kernel_mode(), leaf_signature(args))
+    show = progress is not None and progress is not False
+    t0 = time.perf_counter()
+    compiled, reused = EXECUTABLES.get(
+        (*cache_key, show), lambda: _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh, space.dim, show), args
+    )
+    t1 = time.perf_counter()
+    report = (progress if callable(progress) else _tqdm_progress(runs * iteration_limit(strategy, budget, generations))) if show else None
+    PROGRESS.target, PROGRESS.done, PROGRESS.total = report, {}, int(keys.shape[0])
+    try:
+        out = jax.block_until_ready(compiled(*args))
+        jax.effects_barrier()
+        if report is not None:
+            report(1.0)
+    finally:
+        PROGRESS.target = None
+        if show and not callable(progress):
+            report(None)  # pyright: ignore[reportOptionalCall]
+    t2 = time.perf_counter()
+    compile_s, run_s = t1 - t0, t2 - t1
+    out = jax.tree.map(lambda a: a[:runs], out)
+    return out, {"compile_s": compile_s, "run_s": run_s, "devices": len(devices), "reused_executable": reused}
+
+
+def _polish(run_x, problems, space, jw):
+    """Levenberg–Marquardt from every run's best: (parameters, OFs, what the polish did)."""
+    from .polish import polish_batch
+
+    t0 = time.perf_counter()
+    pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), problems, space, jw))
+    info = {
+        "of_before": np.asarray(pol.of_before).tolist(),
+        "of_after": np.asarray(pol.of_after).tolist(),
+        "steps": np.asarray(pol.steps).tolist(),
+        "time_s": time.perf_counter() - t0,
+    }
+    return np.asarray(pol.x), np.asarray(pol.of_after), info
+
+
+_PASSED_ON = ("method", "integrator", "weights", "bounds", "runs", "budget", "seed", "polish", "pop_size", "i_limit", "strategy_options",
+              "joint_weights", "memory", "precision", "generations", "model", "fixed", "x0")  # fmt: skip
+
+
+def _settings(recordings, model, strategy, space, b, given: dict) -> dict:
+    """What a result records of its configuration (`given`: identify's arguments)."""
+    method, integrator, nd, weights, x0 = (given[k] for k in ("method", "integrator", "nd", "weights", "x0"))
+    runs, budget, seed, pop_size, polish = (given[k] for k in ("runs", "budget", "seed", "pop_size", "polish"))
+    i_limit, memory, precision, generations, joint_weights = (
+        given[k] for k in ("i_limit", "memory", "precision", "generations", "joint_weights")
+    )
+    name = method if isinstance(method, str) else type(method).__name__
+    return {
+        "recording": recordings[0].name if len(recordings) == 1 else [r.name for r in recordings],
+        "data": [r.metadata.get("source", {"name": r.name}) for r in recordings],
+        "model": model_spec(model),
+        "joint_weights": joint_weights,
+        "method": name,
+        "integrator": integrator,
+        "nd": nd,
+        "weights": [float(w) for w in (weights if weights is not None else [1.0] * len(model.outputs))],
+        "bounds": {"lower": np.asarray(b.lower).tolist(), "upper": np.asarray(b.upper).tolist()},
+        "fixed": space.fixed,
+        "x0": None if x0 is None else (x0 if isinstance(x0, (dict, list)) else np.asarray(x0).tolist()),
+        "runs": runs,
+        "budget": budget,
+        "seed": seed,
+        "pop_size": pop_size,
+        "polish": polish,
+        "i_limit": i_limit,
+        "memory": memory,
+        "precision": None if memory is None else physical_precision(precision, model).tolist(),
+        "generations": generations,
+        "strategy": repr(strategy),
+        "ndata": int(sum(len(r) * len(model.outputs) for r in recordings)),
+    }
+
+
 def identify(
     recording: Recording | list[Recording],
     method: str | Strategy = "de-rand-1-exp",
@@ -194,119 +307,25 @@ def identify(
         joint_weights = [float(w) for w in joint_weights]
         if len(joint_weights) != len(recordings) or any(not w >= 0 for w in joint_weights) or sum(joint_weights) <= 0:
             raise ValueError("joint_weights needs one non-negative weight per recording, not all zero")
-    common = dict(
-        method=method,
-        integrator=integrator,
-        weights=weights,
-        bounds=bounds,
-        runs=runs,
-        budget=budget,
-        seed=seed,
-        polish=polish,
-        pop_size=pop_size,
-        i_limit=i_limit,
-        strategy_options=strategy_options,
-        joint_weights=joint_weights,
-        memory=memory,
-        precision=precision,
-        generations=generations,
-        model=model,
-        fixed=fixed,
-        x0=x0,
-    )
     if nd == "auto":
-        return _identify_auto_nd(recordings, nd_tol=nd_tol, nd_max=nd_max, **common)
-    for name, v in (("runs", runs), ("budget", budget), ("pop_size", pop_size)):
-        check_positive_int(name, v)
-    if budget < pop_size:
-        raise ValueError(f"budget ({budget}) must be at least one population ({pop_size})")
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
-        raise ValueError(f"seed must be an integer, got {seed!r}")
-    if memory is not None and memory not in MEMORY_KINDS:
-        raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {memory!r}")
-    if generations is not None:
-        check_positive_int("generations", generations)
+        given = locals()
+        return _identify_auto_nd(recordings, nd_tol=nd_tol, nd_max=nd_max, **{k: given[k] for k in _PASSED_ON})
+    _check_search(runs, budget, pop_size, seed, memory, generations)
     assert not isinstance(nd, str)
-    if isinstance(bounds, str) and bounds.lower() == "auto":
-        from .estimate import auto_bounds
-
-        bounds, start, _ = auto_bounds(recordings, model)
-        x0 = x0 if x0 is not None else {n: v for n, v in start.items() if n not in (fixed or {})} or None
-    b = resolve_bounds(model, bounds)
-    space = make_space(model, b, fixed)
+    b, space, x0, z0 = _search_space(recordings, model, bounds, fixed, x0)
     prec = None if memory is None else jnp.asarray(unit_precision(precision, space, model))
-    z0 = start_values(x0, model, space)
     strategy = make_strategy(method, pop_size=pop_size, **(strategy_options or {}))
     problems = [make_problem(r, model=model, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit) for r in recordings]
     jw = joint_weights or [1.0 / len(problems)] * len(problems)
 
-    devices = jax.devices() if runs > 1 else jax.devices()[:1]
-    mesh = mesh_of(devices, "runs")
-    keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
-    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
-    cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), kernel_mode(), leaf_signature(args))
-    show = progress is not None and progress is not False
-    t0 = time.perf_counter()
-    compiled, reused = EXECUTABLES.get(
-        (*cache_key, show), lambda: _batched_runs(strategy, budget, memory, generations, tuple(jw), mesh, space.dim, show), args
-    )
-    t1 = time.perf_counter()
-    report = (progress if callable(progress) else _tqdm_progress(runs * iteration_limit(strategy, budget, generations))) if show else None
-    PROGRESS.target, PROGRESS.done, PROGRESS.total = report, {}, int(keys.shape[0])
-    try:
-        out = jax.block_until_ready(compiled(*args))
-        jax.effects_barrier()
-        if report is not None:
-            report(1.0)
-    finally:
-        PROGRESS.target = None
-        if show and not callable(progress):
-            report(None)  # pyright: ignore[reportOptionalCall]
-    t2 = time.perf_counter()
-    compile_s, run_s = t1 - t0, t2 - t1
-    out = jax.tree.map(lambda a: a[:runs], out)
+    out, timing = _run_all(strategy, budget, memory, generations, jw, space, (problems, prec, z0), runs, seed, progress)
     run_x = np.asarray(space.to_physical(out.best_x))
     run_of = np.asarray(out.best_f)
     polish_info = None
     if polish:
-        from .polish import polish_batch
-
-        t3 = time.perf_counter()
-        pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), problems, space, jw))
-        polish_info = {
-            "of_before": np.asarray(pol.of_before).tolist(),
-            "of_after": np.asarray(pol.of_after).tolist(),
-            "steps": np.asarray(pol.steps).tolist(),
-            "time_s": time.perf_counter() - t3,
-        }
-        run_x = np.asarray(pol.x)
-        run_of = np.asarray(pol.of_after)
+        run_x, run_of, polish_info = _polish(run_x, problems, space, jw)
     best = int(np.argmin(run_of))
-    name = method if isinstance(method, str) else type(method).__name__
-    settings = {
-        "recording": recordings[0].name if len(recordings) == 1 else [r.name for r in recordings],
-        "data": [r.metadata.get("source", {"name": r.name}) for r in recordings],
-        "model": model_spec(model),
-        "joint_weights": joint_weights,
-        "method": name,
-        "integrator": integrator,
-        "nd": nd,
-        "weights": [float(w) for w in (weights if weights is not None else [1.0] * len(model.outputs))],
-        "bounds": {"lower": np.asarray(b.lower).tolist(), "upper": np.asarray(b.upper).tolist()},
-        "fixed": space.fixed,
-        "x0": None if x0 is None else (x0 if isinstance(x0, (dict, list)) else np.asarray(x0).tolist()),
-        "runs": runs,
-        "budget": budget,
-        "seed": seed,
-        "pop_size": pop_size,
-        "polish": polish,
-        "i_limit": i_limit,
-        "memory": memory,
-        "precision": None if memory is None else physical_precision(precision, model).tolist(),
-        "generations": generations,
-        "strategy": repr(strategy),
-        "ndata": int(sum(len(r) * len(model.outputs) for r in recordings)),
-    }
+    settings = _settings(recordings, model, strategy, space, b, locals())
     return IdentificationResult(
         params=dict(zip(model.names, map(float, run_x[best]))),
         of=float(run_of[best]),
@@ -316,7 +335,7 @@ def identify(
         iterations=np.asarray(out.iterations),
         history=np.asarray(out.history),
         settings=settings,
-        timing={"compile_s": compile_s, "run_s": run_s, "devices": len(devices), "reused_executable": reused},
+        timing=timing,
         polish=polish_info,
         dups=None if memory is None else np.asarray(out.dups),
         memory_chunks=None if memory is None else np.asarray(out.chunks),

@@ -85,20 +85,10 @@ def split_inputs(x, m: int):
     return x[0], tuple(x[1 + j] for j in range(m)), tuple(x[1 + m + j] for j in range(m))
 
 
-def simulate(params, problem: Problem) -> Float[Array, "*batch n s"]:
-    """Every state of the model at the recording's sample instants; row 0 is the initial state.
-
-    `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
-    `Params`. Batched parameters (leading axes) are marched in one scan and the result has shape
-    `(*batch, N, S)`. `jax.vmap` over `params` gives the same. A population (P, n) goes through
-    the Pallas kernel where `dcjax.kernel.kernel_mode()` says so (on a GPU)."""
-    from .kernel import BLOCK, kernel_mode, simulate_kernel  # the kernel builds on this module
-
-    mode = kernel_mode()
-    if mode is not None:
-        x = problem.model.as_array(params)
-        if x.ndim == 2:
-            return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
+def simulate_scan(params, problem: Problem) -> Float[Array, "*batch n s"]:
+    """Every state of the model at the recording's sample instants, row 0 the initial state, as
+    one `lax.scan` over the samples (`dcjax.simulate` picks this or the Pallas kernel).
+    Batched parameters (leading axes) are marched in one scan: shape `(*batch, N, S)`."""
     c, y = prepare(params, problem)
     m = problem.u_start.shape[1]
 

@@ -6,16 +6,18 @@ the scan. Generic over the `Model`: the model's coefficients and vector field ar
 the kernel, with Euler/RK4, ND sub-steps, eq. 29 interpolation, the clamp, channel weights and
 non-uniform time steps exactly as in `dcjax.integrate`."""
 
+import functools
 import os
 import warnings
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax.experimental import pallas as pl
 from jaxtyping import Array, Float
 
 from .integrate import advance_with, step_inputs
-from .problem import Problem
+from .problem import Problem, make_problem
 
 BLOCK = 128  # candidates per kernel instance (lanes)
 
@@ -34,30 +36,30 @@ def kernel_mode() -> str | None:
     return "compiled" if jax.default_backend() == "gpu" and kernel_compiles() else None
 
 
-_PROBE: dict[str, bool] = {}
-
-
 def kernel_compiles() -> bool:
-    """Whether the objective kernel compiles and runs on this backend, tried once per process on
-    a block of SD1 candidates. The Triton lowering in float64 has not been run on a real GPU by
+    """Whether the objective kernel compiles and runs on this backend (tried once per process
+    and backend, `_probe`). The Triton lowering in float64 has not been run on a real GPU by
     this project (no GPU was lent), so the default does not depend on it: where it fails, dcjax
     warns and evaluates with the `lax.scan` (`DCJAX_KERNEL=1` still forces the kernel)."""
-    if "ok" not in _PROBE:
-        from .datasets import load, true_params
-        from .problem import make_problem
+    return _probe(jax.default_backend())
 
-        problem = make_problem(load("SD1"))
-        truth = true_params("SD1")
-        x = jnp.tile(jnp.asarray([truth[n] for n in problem.model.names], jnp.float64), (BLOCK, 1))
-        try:
-            of = jax.jit(lambda x: objective_kernel(x, problem))(x)
-            _PROBE["ok"] = bool(jnp.all(jnp.isfinite(of)))
-        except Exception as e:  # a lowering or runtime error of the kernel, whatever its type
-            warnings.warn(
-                f"the Pallas kernel does not run here ({type(e).__name__}: {str(e)[:160]}); dcjax uses the lax.scan", stacklevel=2
-            )
-            _PROBE["ok"] = False
-    return _PROBE["ok"]
+
+@functools.cache
+def _probe(backend: str) -> bool:
+    """One block of the paper's motor (SD1's parameters) on 64 samples of a 220 V step."""
+    from .models import DC
+    from .recording import Recording
+
+    t = np.arange(64) * 1e-4
+    rec = Recording(t=t, u_a=np.full_like(t, 220.0), i_a=np.ones_like(t), omega=np.ones_like(t))
+    problem = make_problem(rec, model=DC())
+    x = jnp.tile(jnp.asarray([42.5, 0.08, 0.4781, 2e-5, 0.01, 3.27e-5, 8.55e-8], jnp.float64), (BLOCK, 1))
+    try:
+        of = jax.jit(lambda x: objective_kernel(x, problem))(x)
+        return bool(jnp.all(jnp.isfinite(of)))
+    except Exception as e:  # a lowering or runtime error of the kernel, whatever its type
+        warnings.warn(f"the Pallas kernel does not run here ({type(e).__name__}: {str(e)[:160]}); dcjax uses the lax.scan", stacklevel=3)
+        return False
 
 
 def _inputs(problem: Problem):

@@ -212,22 +212,3 @@ def load_recording(
     }
     load = {k: v for k, v in load.items() if v not in (None, False) and not (k == "decimal" and v == ".")}
     return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})
-
-
-def recording_from_table(
-    table, columns=None, units=None, model=None, name: str = "", i_limit=None, scale=None, dt=None, rate=None
-) -> Recording:
-    """A recording from any column table (a pandas DataFrame, a dict of arrays, a structured array);
-    `columns`, `units`, `scale`, `dt`/`rate` as in `load_recording`."""
-    m = get_model(model)
-    if hasattr(table, "columns") and hasattr(table, "__getitem__"):
-        cols = {str(c): np.asarray(table[c]) for c in table.columns}
-    elif isinstance(table, dict):
-        cols = {str(k): np.asarray(v) for k, v in table.items()}
-    elif getattr(table, "dtype", None) is not None and table.dtype.names:
-        cols = {n: np.asarray(table[n]) for n in table.dtype.names}
-    else:
-        raise ValueError("table must be a DataFrame, a dict of arrays or a structured array")
-    chans = select_channels(cols, m.channels, columns, units, m.quantities, scale=scale, dt=dt, rate=rate)
-    t = chans.pop("t")
-    return Recording(t=t, channels=chans, i_a_limit=i_limit, name=name)

@@ -4,11 +4,26 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .integrate import advance, prepare, simulate, split_inputs, step_inputs
-from .kernel import BLOCK, kernel_mode, objective_kernel
+from .integrate import advance, prepare, simulate_scan, split_inputs, step_inputs
+from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
 from .problem import Problem, make_problem
 
-__all__ = ["Problem", "make_problem", "objective", "residuals", "population_objective"]
+__all__ = ["Problem", "make_problem", "simulate", "objective", "residuals", "population_objective"]
+
+
+def simulate(params, problem: Problem) -> Float[Array, "*batch n s"]:
+    """Every state of the model at the recording's sample instants; row 0 is the initial state.
+
+    `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
+    `Params`. Batched parameters (leading axes) are marched in one scan and the result has shape
+    `(*batch, N, S)`. `jax.vmap` over `params` gives the same. A population (P, n) goes through
+    the Pallas kernel where `dcjax.kernel.kernel_mode()` says so (on a GPU)."""
+    mode = kernel_mode()
+    if mode is not None:
+        x = problem.model.as_array(params)
+        if x.ndim == 2:
+            return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
+    return simulate_scan(params, problem)
 
 
 # Populations of 8 * LANES members or more are padded to a multiple of LANES (repeating the last

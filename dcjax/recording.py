@@ -11,6 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .models import get_model
+from .units import select_channels
+
 COLUMNS = ("t", "u_a", "i_a", "omega")
 DC_CHANNELS = COLUMNS[1:]
 
@@ -128,8 +131,6 @@ class Recording:
         """From a pandas DataFrame (or a dict of arrays): `columns` maps channels to column names,
         `units` converts to SI, `scale` multiplies channels, `dt`/`rate` stand in for a missing
         time column (see `dcjax.load_recording`)."""
-        from .loading import recording_from_table
-
         return recording_from_table(
             df, columns=columns, units=units, model=model, name=name, i_limit=i_limit, scale=scale, dt=dt, rate=rate
         )
@@ -213,3 +214,22 @@ def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: b
     start = int(np.flatnonzero(u > threshold * u.max())[0])
     out = recording.select(slice(start, None))
     return out.replace(t=out.t - out.t[0]) if rezero_time else out
+
+
+def recording_from_table(
+    table, columns=None, units=None, model=None, name: str = "", i_limit=None, scale=None, dt=None, rate=None
+) -> Recording:
+    """A recording from any column table (a pandas DataFrame, a dict of arrays, a structured array);
+    `columns`, `units`, `scale`, `dt`/`rate` as in `load_recording`."""
+    m = get_model(model)
+    if hasattr(table, "columns") and hasattr(table, "__getitem__"):
+        cols = {str(c): np.asarray(table[c]) for c in table.columns}
+    elif isinstance(table, dict):
+        cols = {str(k): np.asarray(v) for k, v in table.items()}
+    elif getattr(table, "dtype", None) is not None and table.dtype.names:
+        cols = {n: np.asarray(table[n]) for n in table.dtype.names}
+    else:
+        raise ValueError("table must be a DataFrame, a dict of arrays or a structured array")
+    chans = select_channels(cols, m.channels, columns, units, m.quantities, scale=scale, dt=dt, rate=rate)
+    t = chans.pop("t")
+    return Recording(t=t, channels=chans, i_a_limit=i_limit, name=name)

@@ -54,7 +54,7 @@ reference_simulate_jit = jax.jit(reference_simulate, static_argnames=("max_steps
 
 def simulation_error(params, problem: Problem, reference: Float[Array, "n s"]) -> float:
     """max over the measured channels of max_k |y_sim - y_ref| / max|y_measured|."""
-    from .integrate import simulate
+    from .objectives import simulate
 
     sim = simulate(params, problem)
     outs = problem.model.output_index

@@ -193,7 +193,7 @@ class IdentificationResult:
         return out
 
     def to_dict(self) -> dict:
-        from . import __version__
+        from .version import __version__
 
         names = self.names
         return {
@@ -238,7 +238,7 @@ class IdentificationResult:
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
         """(N, S) states of the best parameters on `recording` (default: the fitted one)."""
-        from .integrate import simulate
+        from .objectives import simulate
 
         prob = self.problems([recording or self.recording])[0]
         return np.asarray(simulate(np.array([self.params[n] for n in self.names]), prob))

@@ -70,9 +70,12 @@ def test_gpu_default_falls_back_to_the_scan_when_the_kernel_does_not_compile(mon
 
     monkeypatch.delenv("DCJAX_KERNEL", raising=False)
     monkeypatch.setattr(kernel.jax, "default_backend", lambda: "gpu")
-    monkeypatch.setattr(kernel, "_PROBE", {})
-    with pytest.warns(UserWarning, match="uses the lax.scan"):
-        assert kernel.kernel_mode() is None
-    assert kernel.kernel_mode() is None  # tried once per process
-    monkeypatch.setattr(kernel, "_PROBE", {"ok": True})
+    kernel._probe.cache_clear()
+    try:
+        with pytest.warns(UserWarning, match="uses the lax.scan"):
+            assert kernel.kernel_mode() is None
+        assert kernel.kernel_mode() is None  # tried once per process and backend
+    finally:
+        kernel._probe.cache_clear()
+    monkeypatch.setattr(kernel, "_probe", lambda backend: True)
     assert kernel.kernel_mode() == "compiled"

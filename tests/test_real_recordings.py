@@ -243,3 +243,15 @@ def test_parameters_roundtrip_and_errors():
         p["Ra"].set(value=float("nan"))
     with pytest.raises(ValueError, match="vary must be True or False"):
         p["Ra"].set(vary="no")
+
+
+def test_a_hundred_recordings_with_one_broken_give_99_fits_and_one_failure():
+    sd1 = datasets.load("SD1")
+    rng = np.random.default_rng(0)
+    recs = [sd1.replace(i_a=sd1.i_a * (1 + 0.01 * rng.standard_normal()), name=f"motor{k:03d}") for k in range(100)]
+    recs[37] = recs[37].replace(omega=np.zeros(len(sd1)))  # a dead speed sensor
+    out = fit_each(recs, params="table4", runs=1, budget=140)
+    failed = [k for k, r in enumerate(out) if isinstance(r, FailedFit)]
+    assert failed == [37] and "'omega' is all zero" in out[37].error
+    assert all(r.success for r in out if not isinstance(r, FailedFit))
+    assert sum(r.timing["reused_executable"] for r in out if not isinstance(r, FailedFit)) == 98  # one compilation for the batch

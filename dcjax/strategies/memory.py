@@ -26,59 +26,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Bool, Float, Int
-
-from ..bounds import Bounds
-from ..models import DC, Model
-from ..models.dc import TABLE29_PRECISION
-from ..space import Space, make_space
+from jaxtyping import Array, Bool, Float, Int
 
 MEMORY_KINDS = ("stma", "ltma-s1", "ltma-s2", "ltma-hash")
-
-# Table 29 (the paper's model), physical units, in `DC.names` order.
-TABLE29 = np.array([TABLE29_PRECISION[n] for n in DC.names])
-
-
-def load_torque_precision(torque: float, speed: float, ra: float, la: float, cm: float, j: float) -> np.ndarray:
-    """Table 29's rule for other drives of the paper's model: the load coefficients are resolved
-    to a torque of `torque` at `speed` (Tla: torque, Tlb: torque / speed, Tlc: torque / speed^2);
-    Ra, La, cm and J get the resolution the user gives (Table 29: 1e-3, 1e-3, 1e-3, 1e-4 with
-    1 mNm at 209 1/s)."""
-    if not (torque > 0 and speed > 0 and min(ra, la, cm, j) > 0):
-        raise ValueError("precisions, torque and speed must be positive")
-    return np.array([ra, la, cm, j, torque, torque / speed, torque / speed**2])
-
-
-def physical_precision(precision: ArrayLike | dict | None, model: Model) -> np.ndarray:
-    """The precision vector (model order): None -> the model's own (Table 29 for `DC`), a
-    name -> value mapping, or a full vector."""
-    if precision is None:
-        return model.precision_array()
-    if isinstance(precision, dict):
-        model.check_names(precision)
-        base = model.precision_array() if model.precision is not None else np.zeros(model.n_params)
-        missing = [n for n in model.names if n not in precision and model.precision is None]
-        if missing:
-            raise ValueError(f"precision needs a value for {missing} (model {model.name} has no default)")
-        return np.array([float(precision.get(n, base[k])) for k, n in enumerate(model.names)])
-    p = np.asarray(precision, dtype=np.float64)
-    if p.shape != (model.n_params,):
-        raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
-    return p
-
-
-def unit_precision(precision: ArrayLike | None, space: "Space | Bounds", model: Model | None = None) -> np.ndarray:
-    """Physical precisions (default: the model's, Table 29 for the paper's model) of the free
-    parameters in the unit cube the strategies search (`space`: a `Space`, or `Bounds`)."""
-    model = model if model is not None else DC()
-    if isinstance(space, Bounds):
-        space = make_space(model, space)
-    p = physical_precision(precision, model)
-    if not np.all(p >= 0) or np.any(np.isnan(p)):
-        raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
-    p = space.free_of(p)
-    width = np.asarray(space.upper - space.lower)
-    return p / width
 
 
 class Memory(eqx.Module):

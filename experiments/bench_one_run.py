@@ -1,0 +1,27 @@
+"""One SD1 run with the paper's settings (DE/rand/1/exp, NP 70, 140,000 FEs, RK4, ND 1): the
+run time of nine compiled runs (seeds 0-8) after one compiling run, min and median. Run it from
+two checkouts (PYTHONPATH=<checkout>) in alternation to compare versions.
+
+    .venv/bin/python -m experiments.bench_one_run [label]
+"""
+
+import statistics
+import sys
+
+import dcjax
+from dcjax import datasets
+
+dcjax.use_host_devices()
+dcjax.use_compiled_loops()
+
+
+def main():
+    label = sys.argv[1] if len(sys.argv) > 1 else dcjax.__version__
+    rec = datasets.load("SD1")
+    dcjax.identify(rec, runs=1, seed=99)  # compiles
+    t = [dcjax.identify(rec, runs=1, seed=s).timing["run_s"] for s in range(9)]
+    print(f"{label}: one SD1 DE run (140,000 FEs, RK4): min {min(t):.4f} s, median {statistics.median(t):.4f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -433,7 +433,7 @@ def report_cmd(args) -> int:
 def design_cmd(args) -> int:
     import numpy as np
 
-    from .design import design_input, evaluate_input, noise_from_fit, write_design
+    from .design import design_input, evaluate_input, noise_from_fit, scales_from_fit, write_design
 
     res = _result(args.result)
     m = res.model
@@ -447,7 +447,8 @@ def design_cmd(args) -> int:
             raise ValueError(f"{name} must be a positive integer, got {v}")
     design = design_input(
         m, res.params, duration=args.duration, dt=args.dt, u_range=(args.umin, args.umax), hold=args.hold, i_limit=limit,
-        criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), starts=args.starts, steps=args.steps, seed=args.seed,
+        criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,
+        steps=args.steps, seed=args.seed,
     )  # fmt: skip
     t = design.recording.t
     baselines = {f"step to {args.umax:g}": evaluate_input(design, m, np.full_like(t, args.umax))}

@@ -53,10 +53,12 @@ class Design:
     noise: dict[str, float]  # sigma per measured channel
     params: dict[str, float]
     free: tuple[str, ...]
+    scale: dict[str, float]  # what "relative" means per parameter (default |value|)
     unidentifiable: list[str]  # parameters in a null direction of F (the model structure hides them)
 
     def relative_stderr(self) -> dict[str, float]:
-        return {n: self.stderr[n] / abs(self.params[n]) if self.params[n] else math.inf for n in self.free}
+        """Standard errors over each parameter's scale (its value, or the scale given for one at 0)."""
+        return {n: self.stderr[n] / self.scale[n] for n in self.free}
 
 
 def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u: np.ndarray, i_limit: float | None) -> Problem:
@@ -81,15 +83,17 @@ def with_input(prob: Problem, u: jax.Array) -> Problem:
     return eqx.tree_at(lambda p: (p.u_start, p.u_end), prob, (u_start, u_end))
 
 
-def information(prob: Problem, x: jax.Array, free: jax.Array, sigma: jax.Array) -> jax.Array:
-    """F (F x F) of the relative free parameters: sum over samples and channels of s s^T / sigma^2."""
+def information(prob: Problem, x: jax.Array, free: jax.Array, sigma: jax.Array, scale: jax.Array | None = None) -> jax.Array:
+    """F (F x F) of the scaled free parameters theta_j = x_j + scale_j delta_j (default scale
+    |x_j|: relative parameters): sum over samples and channels of s s^T / sigma^2, s = dy/d delta."""
     outs = jnp.asarray(prob.model.output_index)
+    scale = jnp.abs(x[free]) if scale is None else scale
 
-    def y_of(logx):
-        xx = x.at[free].set(jnp.exp(logx))
+    def y_of(delta):
+        xx = x.at[free].add(scale * delta)
         return simulate(xx, prob)[:, outs] / sigma  # (N, C)
 
-    s = jax.jacfwd(y_of)(jnp.log(x[free]))  # (N, C, F)
+    s = jax.jacfwd(y_of)(jnp.zeros(free.shape[0], x.dtype))  # (N, C, F)
     s = s.reshape(-1, s.shape[-1])
     return s.T @ s
 
@@ -107,10 +111,14 @@ def criterion_value(F: jax.Array, criterion: str, weights: jax.Array) -> jax.Arr
     return jnp.sum(weights * jnp.log(jnp.maximum(var, 1e-300)))
 
 
-def predicted_stderr(F: np.ndarray, x_free: np.ndarray) -> np.ndarray:
-    """Physical standard errors from the information of the relative parameters (pseudo-inverse)."""
-    cov = np.linalg.pinv(np.asarray(F, float), rcond=1e-13)
-    return np.sqrt(np.maximum(np.diag(cov), 0.0)) * np.abs(x_free)
+def predicted_stderr(F: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Physical standard errors from the information of the scaled parameters; a parameter in a
+    direction the information does not see (eigenvalue <= NULL_TOL x the largest) gets inf."""
+    w, v = np.linalg.eigh(np.asarray(F, float))
+    seen = w > NULL_TOL * max(float(w.max()), 1e-300)
+    var = np.einsum("jk,k,jk->j", v, np.where(seen, 1.0 / np.where(seen, w, 1.0), 0.0), v)
+    hidden = np.any((np.abs(v) > 1e-6) & ~seen[None, :], axis=1)
+    return np.where(hidden, np.inf, np.sqrt(np.maximum(var, 0.0)) * np.abs(scale))
 
 
 def null_parameters(F: np.ndarray, names: tuple[str, ...]) -> list[str]:
@@ -139,6 +147,7 @@ def design_input(
     criterion: str = "d",
     noise: dict[str, float] | None = None,
     fixed: tuple[str, ...] = (),
+    scale: dict[str, float] | None = None,
     starts: int = 8,
     steps: int = 300,
     seed: int = 0,
@@ -146,6 +155,8 @@ def design_input(
     """Design an input of `duration` s sampled every `dt` s, piecewise constant over `hold` s
     (default duration / 20), inside `u_range` = (u_min, u_max), for `model` at `params` (name ->
     value; `fixed` names are known and not designed for), under the supply's `i_limit`.
+    `scale`: what "relative" means for a parameter (default its |value|; give one for a parameter
+    fitted at 0, else it is left out).
     `criterion`: "d", "a" or comma-separated parameter names (module docstring). `noise`: sigma
     per measured channel (default 1 % of the channel's peak under a full step to u_max; never
     below 1e-12). `starts` Adam runs of `steps` steps, the
@@ -174,9 +185,12 @@ def design_input(
         raise ValueError(f"hold must lie between dt ({dt:g} s) and the duration ({duration:g} s), got {hold!r}")
     segments = -(-n // per)
     m.check_names(fixed, "fixed parameter")
-    free_names = tuple(k for k in m.names if k not in fixed and params[k] != 0)
+    m.check_names(scale or {}, "scale of parameter")
+    scales = {k: abs(float(params[k])) for k in m.names}
+    scales.update({k: abs(float(v)) for k, v in (scale or {}).items()})
+    free_names = tuple(k for k in m.names if k not in fixed and scales[k] > 0)
     if not free_names:
-        raise ValueError("no free parameter with a non-zero value to design for")
+        raise ValueError("no free parameter with a non-zero value or scale to design for")
     if criterion in ("d", "a"):
         weights = np.ones(len(free_names))
     else:
@@ -189,6 +203,7 @@ def design_input(
     t = np.arange(n) * dt
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
+    sc = jnp.asarray([scales[k] for k in free_names])
     base = template_problem(m, params, t, np.full(n, hi), i_limit)  # a full step: its peaks set the default noise
     sigma = _noise(m, base, noise)
     crit = criterion if criterion in ("d", "a") else "names"
@@ -196,7 +211,7 @@ def design_input(
 
     def loss(z):
         prob = with_input(base, _profile(z, segments, per, n, lo, hi))
-        return criterion_value(information(prob, x, free, sigma), crit, w)
+        return criterion_value(information(prob, x, free, sigma, sc), crit, w)
 
     z0 = _starts(segments, starts, seed)
     opt = optax.adam(0.02)
@@ -220,7 +235,8 @@ def design_input(
     zs, fs = jax.jit(jax.vmap(run))(z0)
     k = int(np.nanargmin(np.where(np.isfinite(np.asarray(fs)), np.asarray(fs), np.inf)))
     u = np.asarray(_profile(zs[k], segments, per, n, lo, hi))
-    return summarize(m, params, t, u, i_limit, free_names, sigma, criterion, -float(fs[k]) if crit == "d" else float(fs[k]), hold)
+    value = -float(fs[k]) if crit == "d" else float(fs[k])
+    return summarize(m, params, t, u, i_limit, free_names, sigma, criterion, value, hold, {k: scales[k] for k in free_names})
 
 
 def _noise(m: Model, prob: Problem, noise) -> jax.Array:
@@ -250,13 +266,14 @@ def _starts(segments: int, starts: int, seed: int) -> jax.Array:
     return jnp.asarray(np.array(z[: max(starts, 1)]))
 
 
-def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, value, hold) -> Design:
+def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, value, hold, scale: dict[str, float]) -> Design:
     """The `Design` of input `u` on grid `t`: responses, information, predicted errors."""
     prob = template_problem(m, params, t, u, i_limit)
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
-    F = np.asarray(information(prob, x, free, sigma))
-    se = predicted_stderr(F, np.asarray(x[free]))
+    sc = np.array([scale[k] for k in free_names])
+    F = np.asarray(information(prob, x, free, sigma, jnp.asarray(sc)))
+    se = predicted_stderr(F, sc)
     sim = np.asarray(simulate(x, prob))
     chans = {m.inputs[0]: np.asarray(u, float), **{s: sim[:, k] for k, s in enumerate(m.states)}}
     for c in m.inputs[1:]:
@@ -273,6 +290,7 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
         noise=dict(zip(m.outputs, map(float, np.asarray(sigma)))),
         params={k: float(params[k]) for k in m.names},
         free=tuple(free_names),
+        scale=dict(scale),
         unidentifiable=null_parameters(F, tuple(free_names)),
     )
 
@@ -284,7 +302,17 @@ def evaluate_input(design: Design, model: Model | str | None, u: np.ndarray, t: 
     t = design.recording.t if t is None else np.asarray(t, float)
     sigma = jnp.asarray([design.noise[c] for c in m.outputs])
     d = summarize(
-        m, design.params, t, np.asarray(u, float), design.recording.i_a_limit, design.free, sigma, design.criterion, math.nan, design.hold
+        m,
+        design.params,
+        t,
+        np.asarray(u, float),
+        design.recording.i_a_limit,
+        design.free,
+        sigma,
+        design.criterion,
+        math.nan,
+        design.hold,
+        design.scale,
     )
     return d
 
@@ -304,6 +332,20 @@ def noise_from_fit(result) -> dict[str, float] | None:
         if not r > 1e-9 * np.max(np.abs(y)):
             return None
         out[c] = r
+    return out
+
+
+def scales_from_fit(result, fraction: float = 0.01) -> dict[str, float]:
+    """`scale=` for `design_input` from a fit: a parameter that ended on a bound at (about) zero
+    is scaled by `fraction` of its search range (its value says nothing of its size); the others
+    by their value."""
+    b = result.bounds
+    out = {}
+    for n in result.at_bound():
+        k = result.names.index(n)
+        width = float(b.upper[k] - b.lower[k])
+        if abs(result.params[n]) <= 1e-9 * width:
+            out[n] = fraction * width
     return out
 
 

@@ -231,15 +231,7 @@ def _options(args, model) -> dict:
 def _fit_one(recs, args, model, options, progress):
     from .identify import identify
 
-    bounds, start = _bounds(args, model, recs[0])
-    x0 = _named_floats(args.x0, "--x0") or None
-    if x0 is None and start:
-        lo, hi = bounds.lower, bounds.upper
-        x0 = {
-            n: v
-            for n, v in start.items()
-            if n not in (options["fixed"] or {}) and lo[model.names.index(n)] <= v <= hi[model.names.index(n)]
-        } or None
+    bounds, x0 = _file_search(args, model, options, recs[0])
     result = identify(recs, bounds=bounds, x0=x0, progress=progress, **options)
     if args.uncertainty:
         result.uncertainty()
@@ -340,38 +332,82 @@ def fit(args) -> int:
 
 
 def fit_each_cmd(args, model, options) -> int:
-    """`dcjax fit --each`: one fit per file; a file that fails is reported and skipped."""
-    from .each import FailedFit, summary_rows, write_summary
+    """`dcjax fit --each`: one fit per file, the files of one length in one compiled call; a file
+    that fails to load, validate or fit is reported and the others are fitted."""
+    from .each import FailedFit, _check, summary_rows, write_summary
 
     out = Path(args.out)
-    results = []
-    names: dict[str, int] = {}
-    for data in args.data:
+    results: list = [None] * len(args.data)
+    ready = []  # (index, recording, bounds, start values)
+    for k, data in enumerate(args.data):
         label = Path(data).stem if Path(data).exists() else data
         try:
             rec = _load(data, args, model)
-            label = rec.name or label
-            from .each import _check
-
             _check(rec, model, options)
-            result = _fit_one([rec], args, model, options, False)
+            bounds, x0 = _file_search(args, model, options, rec)
+            ready.append((k, rec, bounds, x0))
         except Exception as e:  # one broken file fails alone, whatever broke
-            results.append(FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data))
-            print(f"{label}: failed: {results[-1].error}")
+            results[k] = FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data)
+    recs = {k: rec for k, rec, _, _ in ready}
+    for k, res in _fit_ready(ready, model, options).items():
+        if isinstance(res, Exception):
+            res = FailedFit(name=recs[k].name, error=(str(res).splitlines() or [type(res).__name__])[0], source=args.data[k])
+        results[k] = res
+    names: dict[str, int] = {}
+    for result in results:
+        if isinstance(result, FailedFit):
+            print(f"{result.name}: failed: {result.error}")
             continue
-        k = names.get(label, 0)
-        names[label] = k + 1
-        folder = out / (label if k == 0 else f"{label}_{k + 1}")
+        label = result.recording.name
+        n = names.get(label, 0)
+        names[label] = n + 1
+        folder = out / (label if n == 0 else f"{label}_{n + 1}")
+        if args.uncertainty:
+            result.uncertainty()
         _save(result, folder)
-        results.append(result)
-        hints = bound_hints(result)
-        print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(result.at_bound())}" if hints else "") + f"; wrote {folder}")
+        at = result.at_bound()
+        print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "") + f"; wrote {folder}")
     rows = summary_rows(results, model)
     csv_path, png = write_summary(rows, out, model)
     ok = sum(r["status"] == "ok" for r in rows)
     flagged = [r["name"] for r in rows if r.get("outlier")]
     print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {csv_path} and {png}")
     return 0 if ok == len(rows) else 1 if ok else 2
+
+
+def _file_search(args, model, options, rec):
+    """A file's bounds (--bounds/--lower/--upper/--bound, default its sidecar's preset or auto) and
+    start values (--x0, else the auto estimate's)."""
+    bounds, start = _bounds(args, model, rec)
+    x0 = _named_floats(args.x0, "--x0") or None
+    if x0 is None and start:
+        lo, hi = bounds.lower, bounds.upper
+        free = {n: v for n, v in start.items() if n not in (options["fixed"] or {})}
+        x0 = {n: v for n, v in free.items() if lo[model.names.index(n)] <= v <= hi[model.names.index(n)]} or None
+    return bounds, x0
+
+
+def _fit_ready(ready, model, options) -> dict:
+    """Index -> result (or the exception) of each validated file: in one `identify_each` call
+    where the settings allow, else (and where that call fails) one `identify` each."""
+    from .batch import identify_each
+    from .identify import identify
+
+    if not ready:
+        return {}
+    if options["nd"] != "auto":
+        try:
+            res = identify_each([r for _, r, _, _ in ready], bounds=[b for *_, b, _ in ready], x0=[x for *_, x in ready], **options)
+            return {k: r for (k, *_), r in zip(ready, res)}
+        except Exception:  # a file that breaks the batch: fit them one by one, so it fails alone
+            pass
+    out = {}
+    for k, rec, bounds, x0 in ready:
+        try:
+            out[k] = identify([rec], bounds=bounds, x0=x0, **options)
+        except Exception as e:
+            out[k] = e
+    return out
 
 
 def _result(path):
@@ -485,14 +521,20 @@ def main(argv: list[str] | None = None) -> int:
         warnings.simplefilter("ignore")
         use_compiled_loops()  # a population's time loop as one CPU function (XLA_FLAGS set by the user: kept)
     use_compilation_cache()  # a repeated fit loads its executables (DCJAX_NO_CACHE=1: off)
-    try:
-        return COMMANDS[args.command](args)
-    except ValueError as e:
-        print(f"dcjax: error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"dcjax: error: {e}", file=sys.stderr)
-        return 2
+    with warnings.catch_warnings():
+        warnings.showwarning = _one_line_warning  # inside this block only (catch_warnings restores it)
+        try:
+            return COMMANDS[args.command](args)
+        except (ValueError, OSError) as e:
+            print(f"dcjax: error: {e}", file=sys.stderr)
+            return 2
+        except Exception as e:  # never a traceback from the command line
+            print(f"dcjax: error: {type(e).__name__}: {(str(e).splitlines() or [''])[0]}", file=sys.stderr)
+            return 2
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"dcjax: warning: {message}", file=sys.stderr)
 
 
 if __name__ == "__main__":

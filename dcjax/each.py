@@ -47,25 +47,72 @@ def fit_each(
     `items`: recordings, or paths loaded with `load` (default `dcjax.load_recording` with the
     model). A recording that fails to load, validate or fit gets a `FailedFit` with its one-line
     error and every other one is fitted. `params=None` takes each recording's sidecar preset,
-    else `"auto"`. Recordings of equal length reuse one compiled executable (bounds, start values
-    and data are its arguments); they are fitted one after another."""
-    from .fit import fit
+    else `"auto"`. Recordings of one length (and channels, limit, weights) are fitted in one
+    compiled call (`dcjax.batch.identify_each`: the same results as one fit each); with
+    `AutoSubsteps` or `progress` they are fitted one after another."""
     from .loading import load_recording
 
     m = get_model(model)
     loader = load or (lambda p: load_recording(p, model=m))
-    out: list[IdentificationResult | FailedFit] = []
-    for item in items:
+    out: list = [None] * len(items)
+    valid: list[tuple[int, Recording]] = []
+    for k, item in enumerate(items):
         name = item.name if isinstance(item, Recording) else Path(str(item)).stem
-        source = None if isinstance(item, Recording) else str(item)
         try:
             rec = item if isinstance(item, Recording) else loader(str(item))
-            name = rec.name or name
             _check(rec, m, {})
-            out.append(fit(rec, m, params.copy() if isinstance(params, Parameters) else params, method, **options))
+            valid.append((k, rec))
         except Exception as e:  # one broken recording fails alone, whatever broke
-            out.append(FailedFit(name=name, error=(str(e).splitlines() or [type(e).__name__])[0], source=source))
+            out[k] = _failed(name, e, None if isinstance(item, Recording) else str(item))
+    batched = _fit_batched(valid, m, params, method, options)
+    for k, rec in valid:
+        out[k] = batched.get(k) if batched is not None else None
+        if out[k] is None:
+            out[k] = _fit_alone(rec, m, params, method, options, None if isinstance(items[k], Recording) else str(items[k]))
     return out
+
+
+def _failed(name: str, e: Exception, source: str | None) -> FailedFit:
+    return FailedFit(name=name, error=(str(e).splitlines() or [type(e).__name__])[0], source=source)
+
+
+def _fit_alone(rec, m, params, method, options, source):
+    from .fit import fit
+
+    try:
+        return fit(rec, m, params.copy() if isinstance(params, Parameters) else params, method, **options)
+    except Exception as e:
+        return _failed(rec.name, e, source)
+
+
+def _fit_batched(valid, m, params, method, options) -> dict | None:
+    """Index -> result of the recordings fitted together (`identify_each`), or None where the
+    options ask for one fit each (AutoSubsteps, progress, differing channel weights) or the
+    batch failed (then each recording is fitted alone, and fails alone)."""
+    from .batch import identify_each
+    from .fit import AutoSubsteps, channel_weights, engine_options, search_options
+
+    if not valid or isinstance(options.get("integrator"), AutoSubsteps) or options.get("progress"):
+        return None
+    opts = {k: options[k] for k in ("integrator", "memory", "polish", "runs", "budget", "seed") if k in options}
+    unknown = set(options) - set(opts) - {"progress"}
+    if unknown:
+        raise ValueError(f"fit_each: unknown option(s) {sorted(unknown)}")
+    try:
+        engine = engine_options(method, opts.get("integrator"), opts.get("memory"), opts.get("polish", False),
+                                opts.get("runs", 50), opts.get("budget", 140_000), opts.get("seed", 0))  # fmt: skip
+        weights = {channel_weights([r], m) for _, r in valid}
+        if len(weights) != 1:
+            return None
+        search = [search_options(params.copy() if isinstance(params, Parameters) else params, [r], m) for _, r in valid]
+        shared = {k: search[0].get(k) for k in ("fixed", "precision")}
+        results = identify_each(
+            [r for _, r in valid], bounds=[s["bounds"] for s in search], x0=[s.get("x0") for s in search],
+            weights=weights.pop(), model=m, **shared, **engine,
+        )  # fmt: skip
+    except Exception:
+        return None
+    return {k: res for (k, _), res in zip(valid, results)}
 
 
 def robust_outliers(values: np.ndarray, z: float = OUTLIER_Z) -> np.ndarray:
@@ -162,6 +209,8 @@ def _plot_summary(rows, m, path: Path) -> None:
         if len(v):
             ax.axhline(float(np.median(v)), color="0.5", lw=0.8)
         ax.set(title=c if c != "of" else "OF", xlabel="recording")
+        if 0 < len(ok) <= 30:
+            ax.set_xticks(k, [r["name"] for r in ok], rotation=90, fontsize=6)
     for ax in axes[n:]:
         ax.set_visible(False)
     failed = len(rows) - len(ok)

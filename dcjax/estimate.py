@@ -332,7 +332,7 @@ def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | 
     for r in recs:
         try:
             ests.append(initial_estimate(r, m))
-        except ValueError as e:  # e.g. a state neither measured nor a derivative: the preset, said once
+        except Exception as e:  # a state neither measured nor a derivative, a singular regression: the preset, said once
             if not m.bounds:
                 raise ValueError(f"bounds auto: {e}") from None
             warnings.warn(

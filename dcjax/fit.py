@@ -98,7 +98,7 @@ def with_weights(recording: Recording, weights: Mapping[str, float] | None = Non
     return recording.replace(metadata=meta)
 
 
-def _channel_weights(recordings: list[Recording], model: Model):
+def channel_weights(recordings: list[Recording], model: Model):
     given = [r.metadata.get("weights") for r in recordings]
     if all(g is None for g in given):
         return None
@@ -111,7 +111,7 @@ def _channel_weights(recordings: list[Recording], model: Model):
     return tuple(float(w.get(c, 1.0)) for c in model.outputs)
 
 
-def _search_space(params, recordings: list[Recording], model: Model) -> dict:
+def search_options(params, recordings: list[Recording], model: Model) -> dict:
     """identify's bounds/fixed/x0/precision from `params` (None: each recording's sidecar preset,
     else "auto"; a preset name; "auto"; or `Parameters`)."""
     if params is None:
@@ -165,6 +165,21 @@ def fit(
         raise ValueError("data must be a dcjax.Recording or a non-empty list of them")
     recordings: list[Recording] = [r for r in items if isinstance(r, Recording)]
     m = get_model(model)
+    jw = [r.metadata.get("joint_weight") for r in recordings]
+    joint = None if all(w is None for w in jw) else [1.0 if w is None else float(w) for w in jw]
+    return identify(
+        recordings,
+        weights=channel_weights(recordings, m),
+        joint_weights=joint,
+        model=m,
+        progress=progress,
+        **engine_options(method, integrator, memory, polish, runs, budget, seed),
+        **search_options(params, recordings, m),
+    )
+
+
+def engine_options(method, integrator, memory, polish, runs: int, budget: int, seed: int) -> dict:
+    """`identify`'s spelling of the typed options (integrator and memory objects, a strategy)."""
     integrator = RK4() if integrator is None else integrator
     if isinstance(integrator, AutoSubsteps):
         steps = {"integrator": integrator.integrator.name, "nd": "auto", "nd_tol": integrator.tol, "nd_max": integrator.max_substeps}
@@ -174,22 +189,6 @@ def fit(
         raise ValueError(f"integrator must be dcjax.Euler(...), dcjax.RK4(...) or dcjax.AutoSubsteps(...), got {integrator!r}")
     if memory is not None and not isinstance(memory, Memory):
         raise ValueError(f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {memory!r}")
-    jw = [r.metadata.get("joint_weight") for r in recordings]
-    joint = None if all(w is None for w in jw) else [1.0 if w is None else float(w) for w in jw]
     pop = method.pop_size if isinstance(method, Strategy) else 70
-    return identify(
-        recordings,
-        method=method,
-        weights=_channel_weights(recordings, m),
-        runs=runs,
-        budget=budget,
-        seed=seed,
-        polish=bool(polish),
-        pop_size=pop,
-        joint_weights=joint,
-        memory=None if memory is None else memory.kind,
-        model=m,
-        progress=progress,
-        **steps,
-        **_search_space(params, recordings, m),
-    )
+    return dict(method=method, runs=runs, budget=budget, seed=seed, polish=bool(polish), pop_size=pop,
+                memory=None if memory is None else memory.kind, **steps)  # fmt: skip

@@ -324,8 +324,16 @@ def identify(
     polish_info = None
     if polish:
         run_x, run_of, polish_info = _polish(run_x, problems, space, jw)
-    best = int(np.argmin(run_of))
     settings = _settings(recordings, model, strategy, space, b, locals())
+    return make_result(recordings, model, space, out, (run_x, run_of, polish_info), settings, timing)
+
+
+def make_result(recordings, model, space, out, polished, settings: dict, timing: dict) -> IdentificationResult:
+    """The result of the runs `out` (one recording's or a joint fit's), after the optional polish:
+    `polished` = (parameters (R, P), OFs (R,), what the polish did or None)."""
+    run_x, run_of, polish_info = polished
+    best = int(np.argmin(run_of))
+    memory = settings["memory"]
     return IdentificationResult(
         params=dict(zip(model.names, map(float, run_x[best]))),
         of=float(run_of[best]),

@@ -1,0 +1,143 @@
+"""Many independent recordings in one compiled call: `identify_each`.
+
+Recordings of equal length (same channels, a current limit on all or none, the same free
+parameters) are stacked into one batched `Problem` and one batched `Space` (each recording keeps
+its own bounds and start values), and the runs of every recording are `vmap`ped over the batch
+inside the runner's per-device loop (`shard_map` over the runs, as for one recording). Every
+recording uses the same run keys as a fit of it alone (run r: `fold_in(PRNGKey(seed), r)`), so a
+batch gives each recording the result `identify` gives it. Groups of other lengths get calls of
+their own."""
+
+import time
+from collections.abc import Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import PartitionSpec
+
+from .identify import EXECUTABLES, _check_search, _fitness, _polish, _search_space, _settings, make_result
+from .kernel import kernel_mode
+from .models import get_model
+from .precision import unit_precision
+from .problem import make_problem
+from .recording import Recording
+from .result import IdentificationResult
+from .runner import fold_keys, leaf_signature, mesh_of, padded_size, shard
+from .strategies import make_strategy
+from .strategies.base import run_batch
+
+
+def _stack(trees):
+    return jax.tree.map(lambda *xs: jnp.stack([jnp.asarray(x) for x in xs]), *trees)
+
+
+def _batched_each(strategy, budget, memory, generations, mesh, dim):
+    """(keys, problems (B, ...), spaces (B, ...), precisions, start values) -> runs (B, R, ...)."""
+
+    def device_runs(keys, problem, space, prec, x0):
+        return run_batch(strategy, keys, _fitness(space, [problem], [1.0]), budget, dim, memory, prec, generations, x0)
+
+    each = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0))
+    if mesh is not None:
+        rep = PartitionSpec()
+        each = jax.shard_map(
+            each, mesh=mesh, in_specs=(PartitionSpec("runs"), rep, rep, rep, rep), out_specs=PartitionSpec(None, "runs"), check_vma=False
+        )
+    return jax.jit(each)
+
+
+def identify_each(
+    recordings: Sequence[Recording],
+    bounds: Sequence | None = None,
+    x0: Sequence | None = None,
+    *,
+    method="de-rand-1-exp",
+    integrator: str = "rk4",
+    nd: int = 1,
+    weights=None,
+    runs: int = 50,
+    budget: int = 140_000,
+    seed: int = 0,
+    polish: bool = False,
+    pop_size: int = 70,
+    i_limit: float | None = None,
+    memory: str | None = None,
+    precision=None,
+    generations: int | None = None,
+    model=None,
+    fixed: dict[str, float] | None = None,
+) -> list[IdentificationResult]:
+    """`identify` of each recording on its own, the recordings of one shape in one compiled call
+    (module docstring). `bounds`, `x0`: one entry per recording (any form `identify` takes), or
+    None. Raises what `identify` raises for a bad recording: validate them first (`fit_each`
+    does, and fails a bad recording alone)."""
+    recs = list(recordings)
+    m = get_model(model)
+    _check_search(runs, budget, pop_size, seed, memory, generations)
+    bounds = list(bounds) if bounds is not None else [None] * len(recs)
+    x0 = list(x0) if x0 is not None else [None] * len(recs)
+    if len(bounds) != len(recs) or len(x0) != len(recs):
+        raise ValueError("bounds and x0 need one entry per recording")
+    strategy = make_strategy(method, pop_size=pop_size)
+    setups = []
+    for r, b, s in zip(recs, bounds, x0):
+        box, space, start, z0 = _search_space([r], m, b, fixed, s)
+        prob = make_problem(r, model=m, integrator=integrator, nd=nd, weights=weights, i_limit=i_limit)
+        setups.append((r, box, space, start, z0, prob))
+    groups: dict = {}
+    for k, (r, _, space, _, _, prob) in enumerate(setups):
+        key = (len(r), tuple(r.channels), prob.limit is None, space.free)
+        groups.setdefault(key, []).append(k)
+    out: list = [None] * len(recs)
+    given = dict(method=method, integrator=integrator, nd=nd, weights=weights, runs=runs, budget=budget, seed=seed, pop_size=pop_size,
+                 polish=polish, i_limit=i_limit, memory=memory, precision=precision, generations=generations, joint_weights=None)  # fmt: skip
+    for members in groups.values():
+        for k, res in zip(members, _run_group([setups[k] for k in members], strategy, given, m)):
+            out[k] = res
+    return out
+
+
+def _run_group(setups, strategy, given, model) -> list[IdentificationResult]:
+    runs, seed, budget, memory, generations = (given[k] for k in ("runs", "seed", "budget", "memory", "generations"))
+    spaces = [s[2] for s in setups]
+    dim = spaces[0].dim
+    k_max = max((z.shape[0] for *_, z, _ in setups if z is not None), default=0)
+    z0 = (
+        None
+        if k_max == 0
+        else np.stack(
+            [
+                np.full((k_max, dim), np.nan) if z is None else np.pad(z, ((0, k_max - z.shape[0]), (0, 0)), constant_values=np.nan)
+                for *_, z, _ in setups
+            ]
+        )
+    )
+    prec = None if memory is None else np.stack([unit_precision(given["precision"], sp, model) for sp in spaces])
+    devices = jax.devices() if runs > 1 else jax.devices()[:1]
+    mesh = mesh_of(devices, "runs")
+    keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
+    args = (
+        keys,
+        _stack([s[5] for s in setups]),
+        _stack(spaces),
+        None if prec is None else jnp.asarray(prec),
+        None if z0 is None else jnp.asarray(z0),
+    )
+    cache_key = ("each", repr(strategy), budget, memory, generations, len(devices), kernel_mode(), leaf_signature(args))
+    t0 = time.perf_counter()
+    compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_each(strategy, budget, memory, generations, mesh, dim), args)
+    t1 = time.perf_counter()
+    outs = jax.block_until_ready(compiled(*args))
+    t2 = time.perf_counter()
+    results = []
+    for b, (rec, box, space, start, _, prob) in enumerate(setups):
+        o = jax.tree.map(lambda a, b=b: a[b, :runs], outs)
+        run_x, run_of, info = np.asarray(space.to_physical(o.best_x)), np.asarray(o.best_f), None
+        if given["polish"]:
+            run_x, run_of, info = _polish(run_x, [prob], space, [1.0])
+        timing = {"compile_s": t1 - t0, "run_s": (t2 - t1) / len(setups), "batch": len(setups), "batch_run_s": t2 - t1,
+                  "devices": len(devices), "reused_executable": reused}  # fmt: skip
+        settings = _settings([rec], model, strategy, space, box, {**given, "x0": start})
+        results.append(make_result([rec], model, space, o, (run_x, run_of, info), settings, timing))
+    return results

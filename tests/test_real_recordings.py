@@ -162,11 +162,11 @@ def test_robust_outliers():
 
 
 def test_fit_each_in_one_call_equals_one_fit_each():
-    recs = [datasets.load(n) for n in ("SD1", "SD2", "SD3", "SD4")]
+    recs = [datasets.load(n) for n in ("SD1", "SD4")]
     batch = fit_each(recs, runs=2, budget=2800, polish=True)
     for rec, b in zip(recs, batch):
         alone = dcjax.fit(rec, runs=2, budget=2800, polish=True)
-        assert b.timing["batch"] == 4
+        assert b.timing["batch"] == 2
         np.testing.assert_array_equal(b.run_of, alone.run_of)
         assert b.params == alone.params and b.settings["bounds"] == alone.settings["bounds"]
 

@@ -23,10 +23,15 @@ automatic search ranges (`auto_range`)."""
 import math
 import warnings
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from .models import Model, get_model
+from .objectives import objective
 from .parameters import Parameter, Parameters
+from .problem import make_problem
 from .recording import Recording
 
 CUTOFFS = np.array([0.4, 0.2, 0.1, 0.05, 0.025])  # candidate cutoffs, fractions of the sampling rate
@@ -40,15 +45,17 @@ def _border(fs: float, cutoff: float, n: int) -> int:
     return min(int(math.ceil(fs / cutoff)), n // 10)
 
 
-def _output_error(recording: Recording, model: Model, x: np.ndarray) -> float:
-    """OF (eq. 24) of simulating `x` on the recording (RK4, 2 sub-steps); +inf where it blows up."""
-    from .objectives import objective
-    from .problem import make_problem
+def _output_errors(recording: Recording, model: Model, xs: list[np.ndarray]) -> np.ndarray:
+    """OF (eq. 24) of simulating each `x` on the recording (RK4, 2 sub-steps; one population
+    evaluation); +inf where a simulation blows up or `x` is not finite."""
+    x = np.array(xs, float)
+    ok = np.all(np.isfinite(x), axis=1)
+    x[~ok] = x[ok][0] if ok.any() else 1.0
+    f = np.asarray(_objective_jit(jnp.asarray(x), make_problem(recording, model=model, integrator="rk4", nd=2)))
+    return np.where(ok & np.isfinite(f), f, np.inf)
 
-    if not np.all(np.isfinite(x)):
-        return math.inf
-    f = float(objective(x, make_problem(recording, model=model, integrator="rk4", nd=2)))
-    return f if math.isfinite(f) else math.inf
+
+_objective_jit = eqx.filter_jit(objective)  # one compilation per recording shape, not one per cutoff
 
 
 def _filtered(x: np.ndarray, fs: float, cutoff: float, order: int) -> np.ndarray:
@@ -182,12 +189,27 @@ def _linear_estimate(model: Model, blocks, q: int):
     return theta, stderr, upper
 
 
-def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters):
-    """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta)."""
-    import jax
-    import jax.numpy as jnp
+def _derivative_residual(model: Model, phi, data):
+    """(dy/dt - f(theta, y, u)) / rms(dy/dt), stacked over the states; theta = phi^2 where non-negative."""
+    Y, U, DY, scale, nn = data
+    p = model.as_dict(jnp.where(nn, phi * phi, phi))
+    f = model.vector_field(model.coefficients(p), U, Y)
+    return jnp.concatenate([s * (d - fi) for s, d, fi in zip(scale, DY, f)])
+
+
+@eqx.filter_jit
+def _lm_solve(model: Model, phi0, data):
+    """Vmapped LM from every start (one compilation per model and data shape); (solutions, costs)."""
     import optimistix as optx
 
+    solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
+    residual = lambda phi, d: _derivative_residual(model, phi, d)
+    phis = jax.vmap(lambda p0: optx.least_squares(residual, solver, p0, args=data, max_steps=500, throw=False).value)(phi0)
+    return phis, jax.vmap(lambda p: jnp.sum(residual(p, data) ** 2))(phis)
+
+
+def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters):
+    """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta)."""
     names = model.names
     lo, hi = start.lower, start.upper
     nonneg = np.isfinite(lo) & (lo >= 0)
@@ -199,29 +221,20 @@ def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters):
     given = np.array([p.value is not None for p in start.values()])
     x0 = np.where(given, np.array([p.value if p.value is not None else 0.0 for p in start.values()]), x0)
     phi0 = np.where(nonneg, np.sqrt(np.abs(x0)), x0)
-    Y = tuple(jnp.asarray(_decimated(y[s], q)) for s in model.states)
-    U = tuple(jnp.asarray(_decimated(u[c], q)) for c in model.inputs)
-    DY = [jnp.asarray(_decimated(dy[s], q)) for s in model.states]
-    scale = [1.0 / max(float(jnp.sqrt(jnp.mean(d * d))), 1e-300) for d in DY]
-    nn = jnp.asarray(nonneg)
-
-    def theta(phi):
-        return jnp.where(nn, phi * phi, phi)
-
-    def residual(phi, _):
-        p = model.as_dict(theta(phi))
-        f = model.vector_field(model.coefficients(p), U, Y)
-        return jnp.concatenate([s * (d - fi) for s, d, fi in zip(scale, DY, f)])
-
-    solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
-    solve = jax.jit(jax.vmap(lambda p0: optx.least_squares(residual, solver, p0, max_steps=500, throw=False).value))
-    phis = solve(jnp.asarray(phi0))
-    cost = np.asarray(jax.vmap(lambda p: jnp.sum(residual(p, None) ** 2))(phis))
-    cost = np.where(np.isfinite(cost), cost, np.inf)
+    DY = tuple(jnp.asarray(_decimated(dy[s], q)) for s in model.states)
+    data = (
+        tuple(jnp.asarray(_decimated(y[s], q)) for s in model.states),
+        tuple(jnp.asarray(_decimated(u[c], q)) for c in model.inputs),
+        DY,
+        tuple(jnp.asarray(1.0 / max(float(jnp.sqrt(jnp.mean(d * d))), 1e-300)) for d in DY),
+        jnp.asarray(nonneg),
+    )
+    phis, cost = _lm_solve(model, jnp.asarray(phi0), data)
+    cost = np.where(np.isfinite(np.asarray(cost)), np.asarray(cost), np.inf)
     best = phis[int(np.argmin(cost))]
-    x = np.asarray(theta(best))
-    r = np.asarray(residual(best, None))
-    J = np.asarray(jax.jacfwd(lambda t: residual(jnp.where(nn, jnp.sqrt(jnp.abs(t)), t), None))(jnp.asarray(x)))
+    x = np.asarray(jnp.where(data[4], best * best, best))
+    r = np.asarray(_derivative_residual(model, best, data))
+    J = np.asarray(jax.jacfwd(lambda t: _derivative_residual(model, jnp.where(data[4], jnp.sqrt(jnp.abs(t)), t), data))(jnp.asarray(x)))
     s2 = float(r @ r) / max(1, r.size - len(names))
     stderr = np.sqrt(np.maximum(np.diag(np.linalg.pinv(J.T @ J)) * s2, 0.0))
     return x, stderr, np.full(len(names), np.inf)
@@ -297,8 +310,12 @@ def initial_estimate(
     base = start if start is not None else m.parameters() if m.bounds else Parameters([Parameter(n) for n in m.names])
     nonneg = np.array([math.isfinite(p.min) and p.min >= 0 for p in base.values()])
 
-    def solve(c):
-        y, dy, u, q = _rows(recording, m, c, order, border if border is not None else _border(fs, c, len(recording)), decimate)
+    linear = type(m).regression is not Model.regression
+    n = len(recording)
+
+    def solve(c):  # the LM path keeps one border for every cutoff: one compilation, not five
+        b = border if border is not None else _border(fs, c if linear or cutoff is not None else float(CUTOFFS.min() * fs), n)
+        y, dy, u, q = _rows(recording, m, c, order, b, decimate)
         blocks = m.regression(y, dy, u)
         return _linear_estimate(m, blocks, q) if blocks is not None else _lm_estimate(m, y, dy, u, q, base)
 
@@ -306,7 +323,7 @@ def initial_estimate(
         theta, stderr, upper = solve(float(cutoff))
     else:  # the cutoff whose estimate simulates the recording best (output error, eq. 24)
         tried = [(c, solve(c)) for c in CUTOFFS * fs]
-        scores = [_output_error(scored, m, np.where(nonneg, np.maximum(est[0], 0.0), est[0])) for _, est in tried]
+        scores = _output_errors(scored, m, [np.where(nonneg, np.maximum(est[0], 0.0), est[0]) for _, est in tried])
         theta, stderr, upper = tried[int(np.argmin(scores))][1]
     out = []
     for k, n in enumerate(m.names):

@@ -311,10 +311,10 @@ def initial_estimate(
     nonneg = np.array([math.isfinite(p.min) and p.min >= 0 for p in base.values()])
 
     linear = type(m).regression is not Model.regression
-    n = len(recording)
+    n_samples = len(recording)
 
     def solve(c):  # the LM path keeps one border for every cutoff: one compilation, not five
-        b = border if border is not None else _border(fs, c if linear or cutoff is not None else float(CUTOFFS.min() * fs), n)
+        b = border if border is not None else _border(fs, c if linear or cutoff is not None else float(CUTOFFS.min() * fs), n_samples)
         y, dy, u, q = _rows(recording, m, c, order, b, decimate)
         blocks = m.regression(y, dy, u)
         return _linear_estimate(m, blocks, q) if blocks is not None else _lm_estimate(m, y, dy, u, q, base)

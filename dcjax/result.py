@@ -284,7 +284,9 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
         recordings = []
         for src in d["settings"].get("data", []) or []:
             if src.get("path") and Path(src["path"]).is_file():
-                recordings.append(load_recording(src["path"], **(src.get("load") or {})))
+                recordings.append(
+                    load_recording(src["path"], **{**(src.get("load") or {}), "model": m})
+                )  # the result's model names the channels
             elif src.get("embedded"):
                 from . import datasets
 

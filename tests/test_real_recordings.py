@@ -74,6 +74,9 @@ def test_model_from_a_file(tmp_path, sd1):
     m = get_model(spec)
     assert type(m).__name__ == "Mine" and isinstance(m, dcjax.DC)
     assert get_model(model_spec(m)).__class__ is m.__class__  # a saved result names the file again
+    out = tmp_path / "fit"
+    assert cli.main(["fit", str(datasets.DATA_DIR / "SD1.csv"), "--model", spec, "--runs", "1", "--budget", "140", "--out", str(out)]) == 0
+    assert cli.main(["report", str(out / "result.json")]) == 0  # reloads the file's model and, with it, the data
     with pytest.raises(ValueError, match="cannot import model"):
         get_model(f"{tmp_path / 'absent.py'}:Mine")
     with pytest.raises(ValueError, match="cannot import model"):

@@ -25,6 +25,7 @@ exploit beyond the limit)."""
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import equinox as eqx
 import jax
@@ -130,11 +131,6 @@ def null_parameters(F: np.ndarray, names: tuple[str, ...]) -> list[str]:
     return out
 
 
-def _profile(z, segments: int, per: int, n: int, lo: float, hi: float):
-    u = lo + (hi - lo) * jnp.clip(z, 0.0, 1.0)
-    return jnp.repeat(u, per, total_repeat_length=segments * per)[:n]
-
-
 def design_input(
     model: Model | str | None,
     params: dict[str, float],
@@ -148,6 +144,7 @@ def design_input(
     noise: dict[str, float] | None = None,
     fixed: tuple[str, ...] = (),
     scale: dict[str, float] | None = None,
+    baselines: Sequence[np.ndarray] = (),
     starts: int = 8,
     steps: int = 300,
     seed: int = 0,
@@ -159,13 +156,43 @@ def design_input(
     fitted at 0, else it is left out).
     `criterion`: "d", "a" or comma-separated parameter names (module docstring). `noise`: sigma
     per measured channel (default 1 % of the channel's peak under a full step to u_max; never
-    below 1e-12). `starts` Adam runs of `steps` steps, the
+    below 1e-12). `baselines`: inputs on the design's grid (tests one would run otherwise) that
+    the design must improve on in every parameter of the criterion (all free ones for "d" and
+    "a"): it then minimizes the largest log ratio of a relative variance to the baselines' best,
+    started from each baseline's levels (`_Criterion`). `starts` Adam runs of `steps` steps, the
     random starts from `seed`."""
-    import optax
-
     m = get_model(model)
+    n, lo, hi, per = _grid(m, params, duration, dt, u_range, hold)
+    free_names, scales, weights = _free(m, params, criterion, fixed, scale)
+    segments = -(-n // per)
+    t = np.arange(n) * dt
+    x = jnp.asarray([float(params[k]) for k in m.names])
+    free = jnp.asarray([m.names.index(k) for k in free_names])
+    sc = jnp.asarray([scales[k] for k in free_names])
+    base = template_problem(m, params, t, np.full(n, hi), i_limit)  # a full step: its peaks set the default noise
+    sigma = _noise(m, base, noise)
+    crit = criterion if criterion in ("d", "a") else "names"
+    z0 = _starts(segments, starts, seed)
+    reference = None
+    if len(baselines):
+        us = [_on_grid(b, n) for b in baselines]
+        logvar = [np.log(np.asarray(_variances(with_input(base, jnp.asarray(u)), x, free, sigma, sc))) for u in us]
+        reference = jnp.asarray(np.min(logvar, axis=0))
+        levels = np.array([np.clip((u[::per] - lo) / (hi - lo), 0.0, 1.0) for u in us])
+        z0 = jnp.concatenate([jnp.asarray(levels), z0])[: max(starts, len(us))]
+    loss = _Criterion(base, x, free, sigma, sc, jnp.asarray(weights), reference, crit, segments, per, lo, hi)
+    zs, fs = _optimize(loss, z0, int(steps), 0.02)
+    fs = np.asarray(fs)
+    k = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
+    u = np.asarray(loss.profile(zs[k]))
+    value = -float(fs[k]) if crit == "d" and reference is None else float(fs[k])
+    return summarize(m, params, t, u, i_limit, free_names, sigma, criterion, value, per * dt, {k: scales[k] for k in free_names})
+
+
+def _grid(m: Model, params, duration, dt, u_range, hold) -> tuple[int, float, float, int]:
+    """Checked number of samples, input range and samples per hold interval of a design."""
     m.check_names(params)
-    missing = [n for n in m.names if n not in params]
+    missing = [k for k in m.names if k not in params]
     if missing:
         raise ValueError(f"params must give every parameter of model {m.name}; missing {', '.join(missing)}")
     if not m.inputs:
@@ -183,7 +210,11 @@ def design_input(
     per = int(round(hold / dt))
     if per < 1 or per >= n:
         raise ValueError(f"hold must lie between dt ({dt:g} s) and the duration ({duration:g} s), got {hold!r}")
-    segments = -(-n // per)
+    return n, lo, hi, per
+
+
+def _free(m: Model, params, criterion, fixed, scale) -> tuple[tuple[str, ...], dict[str, float], np.ndarray]:
+    """The parameters designed for, every parameter's scale, and the criterion's weight of each free one."""
     m.check_names(fixed, "fixed parameter")
     m.check_names(scale or {}, "scale of parameter")
     scales = {k: abs(float(params[k])) for k in m.names}
@@ -192,34 +223,82 @@ def design_input(
     if not free_names:
         raise ValueError("no free parameter with a non-zero value or scale to design for")
     if criterion in ("d", "a"):
-        weights = np.ones(len(free_names))
-    else:
-        chosen = [c.strip() for c in str(criterion).split(",") if c.strip()]
-        m.check_names(chosen)
-        bad = [c for c in chosen if c not in free_names]
-        if bad:
-            raise ValueError(f"criterion names {bad} are fixed or zero; free are {', '.join(free_names)}")
-        weights = np.array([1.0 if k in chosen else 0.0 for k in free_names])
-    t = np.arange(n) * dt
-    x = jnp.asarray([float(params[k]) for k in m.names])
-    free = jnp.asarray([m.names.index(k) for k in free_names])
-    sc = jnp.asarray([scales[k] for k in free_names])
-    base = template_problem(m, params, t, np.full(n, hi), i_limit)  # a full step: its peaks set the default noise
-    sigma = _noise(m, base, noise)
-    crit = criterion if criterion in ("d", "a") else "names"
-    w = jnp.asarray(weights)
+        return free_names, scales, np.ones(len(free_names))
+    chosen = [c.strip() for c in str(criterion).split(",") if c.strip()]
+    m.check_names(chosen)
+    bad = [c for c in chosen if c not in free_names]
+    if bad:
+        raise ValueError(f"criterion names {bad} are fixed or zero; free are {', '.join(free_names)}")
+    return free_names, scales, np.array([1.0 if k in chosen else 0.0 for k in free_names])
 
-    def loss(z):
-        prob = with_input(base, _profile(z, segments, per, n, lo, hi))
-        return criterion_value(information(prob, x, free, sigma, sc), crit, w)
 
-    z0 = _starts(segments, starts, seed)
-    opt = optax.adam(0.02)
+def _on_grid(u, n: int) -> np.ndarray:
+    u = np.asarray(u, float)
+    if u.shape != (n,) or not np.all(np.isfinite(u)):
+        raise ValueError(f"baselines: each input must be {n} finite values on the design's grid, got shape {u.shape}")
+    return u
+
+
+_information = eqx.filter_jit(information)
+
+
+@eqx.filter_jit
+def _variances(prob: Problem, x, free, sigma, scale) -> jax.Array:
+    """Relative Cramér–Rao variances (the diagonal of F^-1) of the free parameters under `prob`'s input."""
+    F = information(prob, x, free, sigma, scale)
+    return jnp.diag(jnp.linalg.inv(F + 1e-12 * jnp.trace(F) / F.shape[0] * jnp.eye(F.shape[0])))
+
+
+class _Criterion(eqx.Module):
+    """What the design minimizes, as a function of the levels z in [0, 1] (one per hold interval):
+    the criterion of `criterion_value`, or, with `reference` (the log relative variances of the
+    baselines, their best per parameter), max_j w_j log(var_j / var_ref,j), smoothed for the gradient
+    by a log-sum-exp at `SMOOTH` (the exact maximum is what is kept)."""
+
+    base: Problem
+    x: jax.Array
+    free: jax.Array
+    sigma: jax.Array
+    scale: jax.Array
+    weights: jax.Array
+    reference: jax.Array | None
+    crit: str = eqx.field(static=True)
+    segments: int = eqx.field(static=True)
+    per: int = eqx.field(static=True)
+    lo: float = eqx.field(static=True)
+    hi: float = eqx.field(static=True)
+
+    def profile(self, z: jax.Array) -> jax.Array:
+        n = self.base.y_meas.shape[0]
+        u = self.lo + (self.hi - self.lo) * jnp.clip(z, 0.0, 1.0)
+        return jnp.repeat(u, self.per, total_repeat_length=self.segments * self.per)[:n]
+
+    def __call__(self, z: jax.Array) -> tuple[jax.Array, jax.Array]:
+        F = information(with_input(self.base, self.profile(z)), self.x, self.free, self.sigma, self.scale)
+        if self.reference is None:
+            f = criterion_value(F, self.crit, self.weights)
+            return f, f
+        reg = 1e-12 * jnp.trace(F) / F.shape[0] * jnp.eye(F.shape[0])
+        excess = jnp.log(jnp.maximum(jnp.diag(jnp.linalg.inv(F + reg)), 1e-300)) - self.reference
+        excess = jnp.where(self.weights > 0, excess, -jnp.inf)
+        return SMOOTH * jax.nn.logsumexp(excess / SMOOTH), jnp.max(excess)
+
+
+SMOOTH = 0.01  # temperature (in log variance) of the smoothed maximum of a design against baselines
+
+
+@eqx.filter_jit
+def _optimize(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple[jax.Array, jax.Array]:
+    """Projected Adam from each row of `z0` (vmapped): the best levels by the exact criterion met
+    on the way, and that value."""
+    import optax
+
+    opt = optax.adam(rate)
 
     def run(z):
         def body(carry, _):
             z, state, best_z, best_f = carry
-            f, g = jax.value_and_grad(loss)(z)
+            (_, f), g = jax.value_and_grad(loss, has_aux=True)(z)
             g = jnp.where(jnp.isfinite(g), g, 0.0)
             better = jnp.isfinite(f) & (f < best_f)
             best_z, best_f = jnp.where(better, z, best_z), jnp.where(better, f, best_f)
@@ -227,16 +306,12 @@ def design_input(
             z = jnp.clip(jnp.asarray(optax.apply_updates(z, upd)), 0.0, 1.0)  # projected onto the range
             return (z, state, best_z, best_f), None
 
-        (z, state, best_z, best_f), _ = jax.lax.scan(body, (z, opt.init(z), z, jnp.inf), None, length=steps)
-        f = loss(z)
+        (z, _, best_z, best_f), _ = jax.lax.scan(body, (z, opt.init(z), z, jnp.asarray(jnp.inf, z.dtype)), None, length=steps)
+        f = loss(z)[1]
         better = jnp.isfinite(f) & (f < best_f)
         return jnp.where(better, z, best_z), jnp.where(better, f, best_f)
 
-    zs, fs = jax.jit(jax.vmap(run))(z0)
-    k = int(np.nanargmin(np.where(np.isfinite(np.asarray(fs)), np.asarray(fs), np.inf)))
-    u = np.asarray(_profile(zs[k], segments, per, n, lo, hi))
-    value = -float(fs[k]) if crit == "d" else float(fs[k])
-    return summarize(m, params, t, u, i_limit, free_names, sigma, criterion, value, hold, {k: scales[k] for k in free_names})
+    return jax.vmap(run)(z0)
 
 
 def _noise(m: Model, prob: Problem, noise) -> jax.Array:
@@ -272,7 +347,7 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = np.array([scale[k] for k in free_names])
-    F = np.asarray(information(prob, x, free, sigma, jnp.asarray(sc)))
+    F = np.asarray(_information(prob, x, free, sigma, jnp.asarray(sc)))
     se = predicted_stderr(F, sc)
     sim = np.asarray(simulate(x, prob))
     chans = {m.inputs[0]: np.asarray(u, float), **{s: sim[:, k] for k, s in enumerate(m.states)}}

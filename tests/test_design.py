@@ -58,6 +58,17 @@ def test_design_beats_the_papers_step_in_the_prediction():
     assert d.unidentifiable == []
 
 
+def test_design_against_baselines_never_worse_and_checks_their_grid():
+    t = np.arange(201) * 1e-4
+    coast = np.where(t < 0.008, 220.0, 0.0)
+    d = design_input("dc", SD1, duration=0.02, dt=1e-4, u_range=(0.0, 220.0), hold=1e-3, baselines=[coast], **TINY)
+    ref = evaluate_input(d, "dc", coast)
+    assert d.value <= 0.0  # the largest log variance ratio to the baseline (the baseline itself is a start)
+    assert all(d.stderr[n] <= ref.stderr[n] * (1 + 1e-9) for n in d.free)
+    with pytest.raises(ValueError, match="baselines: each input must be 201 finite values"):
+        design_input("dc", SD1, duration=0.02, dt=1e-4, u_range=(0.0, 220.0), baselines=[coast[:-1]], **TINY)
+
+
 def test_a_parameter_the_structure_hides_is_named():
     class Product(dcjax.Model):  # only a * b enters the dynamics
         names: ClassVar = ("a", "b", "c")
@@ -94,14 +105,18 @@ def test_design_errors_are_clear(kw, match):
 def test_cli_design_writes_the_three_files(tmp_path, capsys):
     assert cli.main(["fit", "SD1", "--runs", "2", "--budget", "14000", "--out", str(tmp_path / "fit")]) == 0
     args = ["design", str(tmp_path / "fit" / "result.json"), "--duration", "0.05", "--dt", "1e-4", "--umin", "0", "--umax", "220"]
-    assert cli.main([*args, "--hold", "2.5e-3", "--starts", "3", "--steps", "25", "--out", str(tmp_path / "d")]) == 0
+    t = np.arange(501) * 1e-4
+    np.savetxt(tmp_path / "coast.csv", np.column_stack([t, np.where(t < 0.02, 220.0, 0.0)]), delimiter=",", header="t,u_a", comments="")
+    design = [*args, "--hold", "1e-3", "--criterion", "J,Tla,Tlb,Tlc", "--baseline", str(tmp_path / "coast.csv")]
+    assert cli.main([*design, "--starts", "2", "--steps", "50", "--out", str(tmp_path / "d")]) == 0
     out = capsys.readouterr().out
-    assert "predicted relative std. errors" in out
+    assert "predicted relative std. errors" in out and "does not beat" not in out
     t, u = np.loadtxt(tmp_path / "d" / "input.csv", delimiter=",", skiprows=1).T
     assert len(t) == 501 and u.min() >= 0 and u.max() <= 220
     info = json.loads((tmp_path / "d" / "design.json").read_text())
     pred = info["predicted"]
-    for n in ("J", "Tla", "Tlb", "Tlc"):
+    for n in ("J", "Tla", "Tlb", "Tlc"):  # below the paper's step and the hand-made coast-down in every one
         assert pred["design"][n]["stderr"] < pred["recording SD1"][n]["stderr"]
+        assert pred["design"][n]["stderr"] < pred["baseline coast"][n]["stderr"]
     assert (tmp_path / "d" / "design.png").stat().st_size > 0
     assert cli.main([*args, "--hold", "1", "--out", str(tmp_path / "e")]) == 2

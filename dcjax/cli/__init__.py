@@ -1,0 +1,39 @@
+"""`dcjax fit | simulate | validate | report | design`: identification and its checks from a shell."""
+
+import sys
+import warnings
+
+from .args import _parser
+from .design import design_cmd
+from .fitting import bound_hints, fit
+from .saved import report_cmd, simulate_cmd, validate_cmd
+
+__all__ = ["bound_hints", "main"]
+
+
+COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "report": report_cmd, "design": design_cmd}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    from ..devices import use_compilation_cache, use_compiled_loops, use_host_devices
+
+    use_host_devices()
+    with warnings.catch_warnings():  # main() called in a process where JAX already runs: skip quietly
+        warnings.simplefilter("ignore")
+        use_compiled_loops()  # a population's time loop as one CPU function (XLA_FLAGS set by the user: kept)
+    use_compilation_cache()  # a repeated fit loads its executables (DCJAX_NO_CACHE=1: off)
+    with warnings.catch_warnings():
+        warnings.showwarning = _one_line_warning  # inside this block only (catch_warnings restores it)
+        try:
+            return COMMANDS[args.command](args)
+        except (ValueError, OSError) as e:
+            print(f"dcjax: error: {e}", file=sys.stderr)
+            return 2
+        except Exception as e:  # never a traceback from the command line
+            print(f"dcjax: error: {type(e).__name__}: {(str(e).splitlines() or [''])[0]}", file=sys.stderr)
+            return 2
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    print(f"dcjax: warning: {message}", file=sys.stderr)

@@ -1,0 +1,146 @@
+"""The command line's parser and the parsing of its NAME=VALUE options."""
+
+import argparse
+
+from ..units import parse_mapping
+
+
+def _floats(text: str, what: str, n: int | None = None) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise ValueError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if n is not None and len(values) != n:
+        raise ValueError(f"{what} must be {n} comma-separated numbers, got {len(values)}")
+    return values
+
+
+def _named_floats(text: str | None, what: str) -> dict[str, float]:
+    out = {}
+    for k, v in parse_mapping(text, what).items():
+        try:
+            out[k] = float(v)
+        except ValueError:
+            raise ValueError(f"{what}: value of {k} must be a number, got {v!r}") from None
+    return out
+
+
+def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]:
+    out = {}
+    for k, v in parse_mapping(text, what).items():
+        lo, sep, hi = v.partition(":")
+        try:
+            out[k] = (float(lo), float(hi))
+        except ValueError:
+            raise ValueError(f"{what}: {k} needs LOWER:UPPER, got {v!r}") from None
+        if not sep:
+            raise ValueError(f"{what}: {k} needs LOWER:UPPER, got {v!r}")
+    return out
+
+
+def _add_data_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("reading the data")
+    g.add_argument("--columns", default=None, help="channel=column pairs, e.g. t=time_ms,u_a=U,i_a=I,omega=n (names or 0-based indices)")
+    g.add_argument("--units", default=None, help="channel=unit pairs, e.g. t=ms,i_a=mA,omega=rpm (converted to SI)")
+    g.add_argument("--delimiter", default=None, help="',', ';', 'tab' or 'whitespace' (default: detected)")
+    g.add_argument("--decimal", default=".", help="decimal separator, '.' or ','")
+    g.add_argument("--window", default=None, help="keep T0:T1 (seconds)")
+    g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
+    g.add_argument("--trim", action="store_true", help="cut the samples before the armature is switched on")
+    g.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
+    g.add_argument(
+        "--scale", default=None, help="channel=factor pairs applied after --units, e.g. omega=322.67 (gear ratio / wheel radius)"
+    )
+    g.add_argument("--dt", type=float, default=None, help="sample time (s) for a file without a time column")
+    g.add_argument("--rate", type=float, default=None, help="sample rate (Hz) for a file without a time column")
+
+
+def _parser() -> argparse.ArgumentParser:
+    from ..strategies import METHODS
+    from ..version import __version__
+
+    p = argparse.ArgumentParser(prog="dcjax", description="Motor and drive parameter identification (Jesenik et al. 2020).")
+    p.add_argument("--version", action="version", version=f"dcjax {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+    f = sub.add_parser("fit", help="identify a model's parameters from recordings")
+    f.add_argument("data", nargs="+", help="data file(s) or embedded names (SD1..SD4, MD1..MD4); several = joint fit (see --each)")
+    f.add_argument(
+        "--each",
+        action="store_true",
+        help="fit every file on its own: DIR/<name>/ per file, DIR/summary.csv and DIR/summary.png; "
+        "exit 0 all fitted, 1 some failed, 2 none fitted",
+    )
+    f.add_argument("--model", default="dc", help="dc (default), dc-coulomb, package.module:attr or path/to/file.py:Name")
+    f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
+    f.add_argument("--integrator", default="rk4", choices=["euler", "rk4"])
+    f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
+    f.add_argument("--runs", type=int, default=50)
+    f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--weights", default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)")
+    f.add_argument(
+        "--bounds",
+        default=None,
+        help="auto (ranges from an equation-error first estimate) or a preset of the model, e.g. table4, table8 "
+        "(default: the sidecar's 'bounds', else auto)",
+    )
+    f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. Ra=0:10,J=0:0.1")
+    f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
+    f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
+    f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. Ra=42.5,Tlc=0")
+    f.add_argument("--x0", default=None, help="start values seeding the initial population, e.g. Ra=40,J=2e-5")
+    f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
+    f.add_argument("--uncertainty", action="store_true", help="standard errors, 95%% intervals and identifiability")
+    f.add_argument(
+        "--memory",
+        default=None,
+        choices=["stma", "ltma-s1", "ltma-s2", "ltma-hash"],
+        help="memory assistance (Section 4.4; ltma-hash: indexed)",
+    )
+    f.add_argument("--precision", default=None, help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)")
+    f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
+    f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
+    f.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
+    _add_data_options(f)
+    s = sub.add_parser("simulate", help="simulate a saved result on a recording: CSV of measured and simulated channels, and a plot")
+    s.add_argument("result", help="result.json of a fit")
+    s.add_argument("data", help="data file or embedded name")
+    s.add_argument("--out", default="out", help="output folder")
+    _add_data_options(s)
+    v = sub.add_parser("validate", help="OF and fit %% per channel of a saved result on other recordings, with plots")
+    v.add_argument("result", help="result.json of a fit")
+    v.add_argument("data", nargs="+", help="data file(s) or embedded names")
+    v.add_argument("--out", default="out", help="output folder")
+    _add_data_options(v)
+    d = sub.add_parser("design", help="design the next experiment's input from a fit (optimal input design)")
+    d.add_argument("result", help="result.json of a fit")
+    d.add_argument("--duration", type=float, required=True, help="length of the test (s)")
+    d.add_argument("--dt", type=float, required=True, help="sample time (s)")
+    d.add_argument("--umin", type=float, required=True, help="lowest input level (V)")
+    d.add_argument("--umax", type=float, required=True, help="highest input level (V)")
+    d.add_argument("--hold", type=float, default=None, help="shortest time an input level is held (s; default duration/20)")
+    d.add_argument("--i-limit", type=float, default=None, help="supply current limit (A; default the fitted recording's)")
+    d.add_argument("--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. J,Tla,Tlb,Tlc")
+    d.add_argument("--noise", default=None, help="noise std. dev. per channel, e.g. i_a=0.05,omega=0.5 (default: the fit's residuals, "
+                   "or 1%% of each channel's peak under a full step where the fit left none)")  # fmt: skip
+    d.add_argument(
+        "--baseline",
+        action="append",
+        default=[],
+        help="CSV of an input you would run otherwise (columns t and the input, or the input alone on the design's grid); "
+        "the design must then predict smaller standard errors than every baseline in each parameter of the criterion "
+        "(repeatable)",
+    )
+    d.add_argument("--starts", type=int, default=8, help="optimizer starts")
+    d.add_argument("--steps", type=int, default=300, help="optimizer steps per start")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--out", default="design", help="output folder")
+    r = sub.add_parser("report", help="print the fit report of a saved result")
+    r.add_argument("result", help="result.json of a fit")
+    r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
+    return p

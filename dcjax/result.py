@@ -5,6 +5,7 @@ its JSON form and its restoration without refitting."""
 import dataclasses
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +15,9 @@ from .parameters import Parameter, Parameters
 from .problem import make_problem
 from .recording import Recording
 from .space import Space, make_space
+
+if TYPE_CHECKING:
+    from .uncertainty import Uncertainty
 
 
 @dataclasses.dataclass
@@ -67,10 +71,12 @@ class IdentificationResult:
             for r in recs
         ]
 
-    def uncertainty(self, profile: str | None = None, profile_points: int = 11):
-        """Standard errors, 95 % intervals, correlations and identifiability verdicts at the best
-        parameters (`dcjax.uncertainty`); fixed parameters are known. With `profile="Tla"` also a
-        profile likelihood over the 95 % interval of that parameter (`.profile = (values, OFs)`)."""
+    def uncertainty(self, profile: str | None = None, profile_points: int = 11) -> "IdentificationResult":
+        """A new result with standard errors, 95 % intervals, correlations and identifiability
+        verdicts at the best parameters (`dcjax.uncertainty`; in `.uncertainties`, and as each
+        parameter's `stderr` in `.parameters`); fixed parameters are known. With `profile="Tla"`
+        also a profile likelihood over the 95 % interval of that parameter
+        (`.uncertainties.profile = (values, OFs)`). This result is not changed."""
         from .uncertainty import profile as profile_fn
         from .uncertainty import uncertainty
 
@@ -85,8 +91,12 @@ class IdentificationResult:
             b = space.bounds
             grid = np.linspace(max(lo, float(b.lower[k])), min(hi, float(b.upper[k])), profile_points)
             u.profile = (grid, profile_fn(x, profile, grid, self.problems(), space, weights=jw))
-        self._uncertainty = u
-        return u
+        return dataclasses.replace(self, _uncertainty=u)
+
+    @property
+    def uncertainties(self) -> "Uncertainty | None":
+        """The uncertainty analysis of a result returned by `uncertainty()`, else None."""
+        return self._uncertainty  # pyright: ignore[reportReturnType]
 
     @property
     def stats(self) -> dict[str, float]:

@@ -12,6 +12,7 @@ one held fixed (Levenberg–Marquardt) over a grid."""
 
 import dataclasses
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -69,11 +70,18 @@ def residual_jacobian(
     weights = weights or [1.0 / len(problems)] * len(problems)
     xj = jnp.asarray(x, dtype=jnp.float64)
     free = jnp.arange(xj.shape[0]) if free is None else jnp.asarray(free, dtype=int)
+    r, jac = _residuals_and_jacobian(xj, free, list(problems), tuple(float(w) for w in weights))
+    return np.asarray(r), np.asarray(jac)
+
+
+@eqx.filter_jit
+def _residuals_and_jacobian(x: jax.Array, free: jax.Array, problems: list[Problem], weights: tuple[float, ...]):
+    """One compiled residual and forward-mode Jacobian per problem structure (reused across calls)."""
 
     def r_of(xf):
-        return stacked_residuals(xj.at[free].set(xf), problems, weights)
+        return stacked_residuals(x.at[free].set(xf), problems, list(weights))
 
-    return np.asarray(r_of(xj[free])), np.asarray(jax.jacfwd(r_of)(xj[free]))
+    return r_of(x[free]), jax.jacfwd(r_of)(x[free])
 
 
 def _t_quantile(dof: int) -> float:

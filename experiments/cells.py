@@ -149,7 +149,7 @@ def run_cell(cell: Cell) -> dict:
         "devices": r.timing["devices"],
     }
     if cell.polish:
-        u = r.uncertainty()
+        u = r.uncertainty().uncertainties
         line["uncertainty"] = {n: {"value": float(u.params[n]), "se": float(u.se[n]), "verdict": u.verdict[n]} for n in PARAM_NAMES}
     return line
 

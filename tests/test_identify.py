@@ -159,7 +159,7 @@ def test_cli_module_entry_bad_file(tmp_path):
 
 
 @pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs Linux /proc")
-def test_repeated_identify_does_not_accumulate_memory_mappings(sd1):
+def test_repeated_identify_does_not_accumulate_memory_mappings(sd1, monkeypatch):
     """Each compiled executable holds memory mappings; a long sweep of `identify` calls must not
     keep them all (the kernel limit, vm.max_map_count, ended a full reproduction once)."""
 
@@ -168,6 +168,7 @@ def test_repeated_identify_does_not_accumulate_memory_mappings(sd1):
 
     cache = sys.modules["dcjax.identify"].EXECUTABLES
     cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
+    monkeypatch.setattr(cache, "size", 2)  # fills after two calls: four more show whether evicted ones are freed
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
     counts = []
     for k in range(cache.size + 4):  # distinct executables: the cache fills, then evicts

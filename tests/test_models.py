@@ -94,7 +94,8 @@ def test_series_model_end_to_end_de_polish_uncertainty():
     assert r.names == SeriesWound.names and r.of < 1e-20, r.run_of
     for n, v in SERIES_TRUE.items():
         assert abs(r.params[n] - v) <= 1e-6 * v, (n, r.params[n], v)
-    u = r.uncertainty()
+    r = r.uncertainty()
+    u = r.uncertainties
     assert set(u.se) == set(SeriesWound.names) and all(u.verdict[n] == "well determined" for n in SeriesWound.names), u.table()
     assert "[[Variables]]" in r.report() and "Laf" in r.report()
 
@@ -145,7 +146,8 @@ def test_fixed_parameters_shrink_the_search_and_are_reported(sd1):
     assert r.fixed == {"Ra": 42.5, "Tlc": SD1["Tlc"]}
     d = r.to_dict()
     assert d["fixed"] == r.fixed and d["free"] == ["La", "cm", "J", "Tla", "Tlb"] and set(d["params"]) == set(DC.names)
-    u = r.uncertainty()
+    u = r.uncertainty().uncertainties
+    assert r.uncertainties is None  # a new result; this one is unchanged
     assert u.verdict["Ra"] == "fixed (known)" and u.se["Ra"] == 0.0 and u.verdict["La"] != "fixed (known)"
     with pytest.raises(ValueError, match="fixed"):
         r.uncertainty(profile="Ra")

@@ -72,7 +72,9 @@ def test_profile_likelihood_minimum_at_fit():
 
 def test_result_uncertainty_method(sd1):
     r = identify(sd1, runs=2, budget=7000, seed=0, polish=True)
-    u = r.uncertainty(profile="Ra", profile_points=3)
+    r2 = r.uncertainty(profile="Ra", profile_points=3)
+    u = r2.uncertainties
+    assert r.uncertainties is None and r2.parameters["Ra"].stderr == u.se["Ra"] and r.parameters["Ra"].stderr is None
     assert set(u.verdict) == set(PARAM_NAMES) and u.correlation.shape == (7, 7)
     assert len(u.profile[0]) == 3 and "verdict" in u.table()
 

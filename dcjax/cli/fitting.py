@@ -112,7 +112,7 @@ def _fit_one(recs, args, model, options, progress):
     bounds, x0 = _file_search(args, model, options, recs[0])
     result = identify(recs, bounds=bounds, x0=x0, progress=progress, **options)
     if args.uncertainty:
-        result.uncertainty()
+        result = result.uncertainty()
     return result
 
 
@@ -180,7 +180,7 @@ def _print_fit(result, recs, args, model, out):
             f"memory {args.memory}: {d['percent']:.1f} % of candidates answered from memory; mean FEs {result.fes.mean():.0f}, iterations {result.iterations.mean():.0f}"
         )
     if args.uncertainty:
-        print(result._uncertainty.table())
+        print(result.uncertainties.table())
     for line in bound_hints(result):
         print(line)
     print(
@@ -241,7 +241,7 @@ def fit_each_cmd(args, model, options) -> int:
         names[label] = n + 1
         folder = out / (label if n == 0 else f"{label}_{n + 1}")
         if args.uncertainty:
-            result.uncertainty()
+            result = result.uncertainty()
         _save(result, folder)
         at = result.at_bound()
         print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "") + f"; wrote {folder}")

@@ -56,6 +56,6 @@ def validate_cmd(args) -> int:
 def report_cmd(args) -> int:
     res = _result(args.result)
     if args.uncertainty:
-        res.uncertainty()
+        res = res.uncertainty()
     print(res.report())
     return 0

@@ -25,7 +25,7 @@ from .recording import Recording
 from .result import IdentificationResult
 from .runner import fold_keys, leaf_signature, mesh_of, padded_size, shard
 from .strategies import make_strategy
-from .strategies.base import run_batch
+from .strategies.base import hyperparameters, run_batch, structure_key, with_hyperparameters
 
 
 def _stack(trees):
@@ -35,14 +35,19 @@ def _stack(trees):
 def _batched_each(strategy, budget, memory, generations, mesh, dim):
     """(keys, problems (B, ...), spaces (B, ...), precisions, start values) -> runs (B, R, ...)."""
 
-    def device_runs(keys, problem, space, prec, x0):
-        return run_batch(strategy, keys, _fitness(space, [problem], [1.0]), budget, dim, memory, prec, generations, x0)
+    def device_runs(keys, problem, space, prec, x0, hyper):
+        strat = with_hyperparameters(strategy, hyper)
+        return run_batch(strat, keys, _fitness(space, [problem], [1.0]), budget, dim, memory, prec, generations, x0)
 
-    each = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0))
+    each = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0, None))
     if mesh is not None:
         rep = PartitionSpec()
         each = jax.shard_map(
-            each, mesh=mesh, in_specs=(PartitionSpec("runs"), rep, rep, rep, rep), out_specs=PartitionSpec(None, "runs"), check_vma=False
+            each,
+            mesh=mesh,
+            in_specs=(PartitionSpec("runs"), rep, rep, rep, rep, rep),
+            out_specs=PartitionSpec(None, "runs"),
+            check_vma=False,
         )
     return jax.jit(each)
 
@@ -123,8 +128,9 @@ def _run_group(setups, strategy, given, model) -> list[IdentificationResult]:
         _stack(spaces),
         None if prec is None else jnp.asarray(prec),
         None if z0 is None else jnp.asarray(z0),
+        hyperparameters(strategy),
     )
-    cache_key = ("each", repr(strategy), budget, memory, generations, len(devices), kernel_mode(), leaf_signature(args))
+    cache_key = ("each", structure_key(strategy), budget, memory, generations, len(devices), kernel_mode(), leaf_signature(args))
     t0 = time.perf_counter()
     compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_each(strategy, budget, memory, generations, mesh, dim), args)
     t1 = time.perf_counter()

@@ -19,7 +19,7 @@ from .result import IdentificationResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
 from .space import Space, make_space
 from .strategies import Strategy, make_strategy
-from .strategies.base import FitnessFn, iteration_limit, run_batch
+from .strategies.base import FitnessFn, hyperparameters, iteration_limit, run_batch, structure_key, with_hyperparameters
 from .strategies.memory import MEMORY_KINDS
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
@@ -89,17 +89,17 @@ def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim, progress
     reports the fraction done `PROGRESS_CHUNKS` times (`jax.debug.callback`, same results)."""
     t_max = iteration_limit(strategy, budget, generations)
 
-    def device_runs(keys, problems, space, prec, x0):
+    def device_runs(keys, problems, space, prec, x0, hyper):
         report = None
         if progress:
             device = jax.lax.axis_index("runs") if mesh is not None else 0
             report = lambda done: jax.debug.callback(PROGRESS.report, device, done)
         return run_batch(
-            strategy, keys, _fitness(space, problems, jw), budget, dim, memory, prec, generations, x0,
+            with_hyperparameters(strategy, hyper), keys, _fitness(space, problems, jw), budget, dim, memory, prec, generations, x0,
             report=report, report_every=max(1, -(-t_max // PROGRESS_CHUNKS)),
         )  # fmt: skip
 
-    return jax.jit(_per_device(device_runs, mesh, 5))
+    return jax.jit(_per_device(device_runs, mesh, 6))
 
 
 def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
@@ -165,8 +165,8 @@ def _run_all(strategy, budget, memory, generations, jw, space, data, runs: int, 
     devices = jax.devices() if runs > 1 else jax.devices()[:1]
     mesh = mesh_of(devices, "runs")
     keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
-    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0))
-    cache_key = (repr(strategy), budget, memory, generations, tuple(jw), len(devices), kernel_mode(), leaf_signature(args))
+    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0), hyperparameters(strategy))
+    cache_key = (structure_key(strategy), budget, memory, generations, tuple(jw), len(devices), kernel_mode(), leaf_signature(args))
     show = progress is not None and progress is not False
     t0 = time.perf_counter()
     compiled, reused = EXECUTABLES.get(

@@ -13,6 +13,7 @@ import pytest
 from dcjax import PARAM_NAMES, TABLE4, datasets, identify, make_problem
 from dcjax.cli import main
 from dcjax.polish import polish_jit
+from dcjax.strategies import DERand1Exp
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -191,3 +192,16 @@ def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
         assert seen == sorted(seen) and seen[-1] == 1.0 and (memory is not None or len(seen) >= 10)
     assert main(["fit", "SD1", "--runs", "1", "--budget", "1400", "--progress", "--out", str(tmp_path)]) == 0
     assert "iterations (all runs)" in capsys.readouterr().err
+
+
+def test_a_sweep_over_f_and_cr_reuses_one_executable(sd1):
+    """DE's F and CR are arguments of the compiled runs (`Strategy.traced`), not constants: another
+    F or CR runs the same executable, and gives other runs; the same F gives the same bits."""
+    kw = dict(runs=2, budget=2100, seed=1)
+    a = identify(sd1, strategy_options={"f": 0.5, "cr": 0.9}, **kw)
+    b = identify(sd1, strategy_options={"f": 0.7, "cr": 0.6}, **kw)
+    c = identify(sd1, method=DERand1Exp(f=0.5, cr=0.9), **kw)
+    assert b.timing["reused_executable"] and c.timing["reused_executable"]
+    assert not np.array_equal(a.run_params, b.run_params)
+    np.testing.assert_array_equal(a.run_params, c.run_params)
+    assert "f=0.7" in b.settings["strategy"] and "cr=0.6" in b.settings["strategy"]

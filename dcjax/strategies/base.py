@@ -4,6 +4,7 @@ the paper's limits (Tables 4 and 8)."""
 
 import dataclasses
 from collections.abc import Callable, Sequence
+from typing import ClassVar
 
 import equinox as eqx
 import jax
@@ -178,6 +179,7 @@ class Strategy(eqx.Module):
     that mask evaluations past the budget set it to 1 and stop exactly at the budget."""
 
     pop_size: int = eqx.field(static=True, default=70)
+    traced: ClassVar[tuple[str, ...]] = ()  # float hyperparameters passed to the executable as values
 
     @property
     def cost(self) -> int:
@@ -191,6 +193,25 @@ class Strategy(eqx.Module):
 
     def step(self, key, state: State, fn: FitnessFn, budget: int) -> State:
         raise NotImplementedError
+
+
+def hyperparameters(strategy: Strategy) -> dict[str, Array]:
+    """The strategy's traced hyperparameters (`Strategy.traced`, e.g. DE's F and CR) as float64
+    scalars: an argument of the compiled runs, so a sweep over them reuses one executable."""
+    return {n: jnp.asarray(getattr(strategy, n), jnp.float64) for n in strategy.traced}
+
+
+def with_hyperparameters(strategy: Strategy, values: dict[str, Array]) -> Strategy:
+    """`strategy` with its traced hyperparameters set to `values` (tracers inside the executable)."""
+    if not values:
+        return strategy
+    names = tuple(values)
+    return eqx.tree_at(lambda s: tuple(getattr(s, n) for n in names), strategy, tuple(values[n] for n in names))
+
+
+def structure_key(strategy: Strategy) -> str:
+    """What of the strategy the executable is compiled for: everything but the traced values."""
+    return repr(dataclasses.replace(strategy, **{n: None for n in strategy.traced}))
 
 
 class RunOutput(eqx.Module):

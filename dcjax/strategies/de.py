@@ -35,6 +35,7 @@ def binomial_crossover(u: Float[Array, "P D+1"], target: Float[Array, "P D"], mu
 class _DE(Strategy):
     f: float = 0.6
     cr: float = 0.8
+    traced: ClassVar[tuple[str, ...]] = ("f", "cr")
     bounds_rule: str = "redraw"
     init_rule: str = "uniform"
     n_picks: ClassVar[int] = 0  # distinct population indices the mutation needs

@@ -1,7 +1,9 @@
 """`identify`: independent evolutionary runs on one recording (or a joint set), batched into
 one compiled call, with an optional Levenberg–Marquardt polish (paper Sections 2–5)."""
 
+import itertools
 import time
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -61,25 +63,29 @@ def _per_device(fn, mesh, n_args: int, memory=True):
     return jax.shard_map(fn, mesh=mesh, in_specs=(spec, *[rep] * (n_args - 1)), out_specs=spec, check_vma=False)
 
 
-class _ProgressSink:
-    """Where the compiled runs report progress: the executable calls `report` (a
-    `jax.debug.callback`, once per device and chunk, outside the vmap over runs); `identify`
-    points `target` at the caller's callback for the duration of one call."""
+class ProgressMeter:
+    """One call's progress: the compiled runs report each device's runs' fractions done (a
+    `jax.debug.callback`, once per device and chunk, outside the vmap over runs, in any order),
+    and the meter calls `target` with the fraction of all runs done."""
 
-    def __init__(self):
-        self.target = None
-        self.total = 1
+    def __init__(self, target: Callable[[float], None], total: int):
+        self.target, self.total = target, total
         self.done: dict[int, np.ndarray] = {}
 
-    def report(self, device, done):
-        # unordered callbacks: keep the furthest state seen of every run
-        old = self.done.get(int(device))
+    def report(self, device, done) -> None:
+        old = self.done.get(int(device))  # unordered callbacks: keep the furthest state seen of every run
         self.done[int(device)] = np.asarray(done) if old is None else np.maximum(old, done)
-        if self.target is not None:  # runs of devices not heard from yet count as not started
-            self.target(float(sum(np.sum(d) for d in self.done.values()) / self.total))
+        self.target(float(sum(np.sum(d) for d in self.done.values()) / self.total))  # devices not heard from: not started
 
 
-PROGRESS = _ProgressSink()
+_TOKENS = itertools.count(1)
+_METERS: dict[int, ProgressMeter] = {}  # the meters of the calls running now, by the token each passes its executable
+
+
+def _report(token, device, done) -> None:
+    meter = _METERS.get(int(token))
+    if meter is not None:
+        meter.report(device, done)
 
 
 def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim, progress: bool = False):
@@ -89,17 +95,17 @@ def _batched_runs(strategy, budget, memory, generations, jw, mesh, dim, progress
     reports the fraction done `PROGRESS_CHUNKS` times (`jax.debug.callback`, same results)."""
     t_max = iteration_limit(strategy, budget, generations)
 
-    def device_runs(keys, problems, space, prec, x0, hyper):
+    def device_runs(keys, problems, space, prec, x0, hyper, token):
         report = None
         if progress:
             device = jax.lax.axis_index("runs") if mesh is not None else 0
-            report = lambda done: jax.debug.callback(PROGRESS.report, device, done)
+            report = lambda done: jax.debug.callback(_report, token, device, done)
         return run_batch(
             with_hyperparameters(strategy, hyper), keys, _fitness(space, problems, jw), budget, dim, memory, prec, generations, x0,
             report=report, report_every=max(1, -(-t_max // PROGRESS_CHUNKS)),
         )  # fmt: skip
 
-    return jax.jit(_per_device(device_runs, mesh, 6))
+    return jax.jit(_per_device(device_runs, mesh, 7))
 
 
 def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
@@ -165,7 +171,8 @@ def _run_all(strategy, budget, memory, generations, jw, space, data, runs: int, 
     devices = jax.devices() if runs > 1 else jax.devices()[:1]
     mesh = mesh_of(devices, "runs")
     keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
-    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0), hyperparameters(strategy))
+    token = next(_TOKENS)
+    args = (keys, problems, space, prec, None if z0 is None else jnp.asarray(z0), hyperparameters(strategy), jnp.asarray(token, jnp.int64))
     cache_key = (structure_key(strategy), budget, memory, generations, tuple(jw), len(devices), kernel_mode(), leaf_signature(args))
     show = progress is not None and progress is not False
     t0 = time.perf_counter()
@@ -174,14 +181,15 @@ def _run_all(strategy, budget, memory, generations, jw, space, data, runs: int, 
     )
     t1 = time.perf_counter()
     report = (progress if callable(progress) else _tqdm_progress(runs * iteration_limit(strategy, budget, generations))) if show else None
-    PROGRESS.target, PROGRESS.done, PROGRESS.total = report, {}, int(keys.shape[0])
+    if report is not None:
+        _METERS[token] = ProgressMeter(report, int(keys.shape[0]))
     try:
         out = jax.block_until_ready(compiled(*args))
         jax.effects_barrier()
         if report is not None:
             report(1.0)
     finally:
-        PROGRESS.target = None
+        _METERS.pop(token, None)
         if show and not callable(progress):
             report(None)  # pyright: ignore[reportOptionalCall]
     t2 = time.perf_counter()

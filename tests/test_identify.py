@@ -190,6 +190,7 @@ def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         np.testing.assert_array_equal(a.history, b.history)
         assert seen == sorted(seen) and seen[-1] == 1.0 and (memory is not None or len(seen) >= 10)
+        assert not sys.modules["dcjax.identify"]._METERS  # a meter lives for its call only
     assert main(["fit", "SD1", "--runs", "1", "--budget", "1400", "--progress", "--out", str(tmp_path)]) == 0
     assert "iterations (all runs)" in capsys.readouterr().err
 

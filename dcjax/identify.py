@@ -68,7 +68,7 @@ class ProgressMeter:
     `jax.debug.callback`, once per device and chunk, outside the vmap over runs, in any order),
     and the meter calls `target` with the fraction of all runs done."""
 
-    def __init__(self, target: Callable[[float], None], total: int):
+    def __init__(self, target: Callable[[float], object], total: int):
         self.target, self.total = target, total
         self.done: dict[int, np.ndarray] = {}
 

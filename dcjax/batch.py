@@ -3,7 +3,9 @@
 Recordings of equal length (same channels, a current limit on all or none, the same free
 parameters) are stacked into one batched `Problem` and one batched `Space` (each recording keeps
 its own bounds and start values), and the runs of every recording are `vmap`ped over the batch
-inside the runner's per-device loop (`shard_map` over the runs, as for one recording). Every
+inside the runner's per-device loop (`shard_map` over the runs, as for one recording; with one
+run per recording over the recordings instead, padded to a multiple of the device count, which
+also spans the processes of `jax.distributed`). Every
 recording uses the same run keys as a fit of it alone (run r: `fold_in(PRNGKey(seed), r)`), so a
 batch gives each recording the result `identify` gives it. Groups of other lengths get calls of
 their own."""
@@ -12,7 +14,6 @@ import time
 from collections.abc import Sequence
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec
 
@@ -23,17 +24,18 @@ from .precision import unit_precision
 from .problem import make_problem
 from .recording import Recording
 from .result import IdentificationResult
-from .runner import fold_keys, leaf_signature, mesh_of, padded_size, shard
+from .runner import fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
 from .strategies import make_strategy
 from .strategies.base import hyperparameters, run_batch, structure_key, with_hyperparameters
 
 
 def _stack(trees):
-    return jax.tree.map(lambda *xs: jnp.stack([jnp.asarray(x) for x in xs]), *trees)
+    return jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *trees)
 
 
-def _batched_each(strategy, budget, memory, generations, mesh, dim):
-    """(keys, problems (B, ...), spaces (B, ...), precisions, start values) -> runs (B, R, ...)."""
+def _batched_each(strategy, budget, memory, generations, mesh, dim, axis: str):
+    """(keys, problems (B, ...), spaces (B, ...), precisions, start values, hyperparameters) ->
+    runs (B, R, ...). On several devices the `axis` ("runs" or "recordings") is split over them."""
 
     def device_runs(keys, problem, space, prec, x0, hyper):
         strat = with_hyperparameters(strategy, hyper)
@@ -41,14 +43,10 @@ def _batched_each(strategy, budget, memory, generations, mesh, dim):
 
     each = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0, None))
     if mesh is not None:
-        rep = PartitionSpec()
-        each = jax.shard_map(
-            each,
-            mesh=mesh,
-            in_specs=(PartitionSpec("runs"), rep, rep, rep, rep, rep),
-            out_specs=PartitionSpec(None, "runs"),
-            check_vma=False,
-        )
+        rep, split = PartitionSpec(), PartitionSpec(axis)
+        specs = (split, rep, rep, rep, rep, rep) if axis == "runs" else (rep, split, split, split, split, rep)
+        out = PartitionSpec(None, "runs") if axis == "runs" else split
+        each = jax.shard_map(each, mesh=mesh, in_specs=specs, out_specs=out, check_vma=False)
     return jax.jit(each)
 
 
@@ -119,22 +117,25 @@ def _run_group(setups, strategy, given, model) -> list[IdentificationResult]:
         )
     )
     prec = None if memory is None else np.stack([unit_precision(given["precision"], sp, model) for sp in spaces])
-    devices = jax.devices() if runs > 1 else jax.devices()[:1]
-    mesh = mesh_of(devices, "runs")
-    keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, "runs")
-    args = (
-        keys,
-        _stack([s[5] for s in setups]),
-        _stack(spaces),
-        None if prec is None else jnp.asarray(prec),
-        None if z0 is None else jnp.asarray(z0),
-        hyperparameters(strategy),
-    )
-    cache_key = ("each", structure_key(strategy), budget, memory, generations, len(devices), kernel_mode(), leaf_signature(args))
+    # Several runs: split them over the devices (as `identify`); one run of many recordings: split the recordings.
+    axis = "recordings" if runs == 1 and len(setups) > 1 else "runs"
+    devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
+    mesh = mesh_of(devices, axis)
+    pad = padded_size(len(setups), devices) - len(setups) if axis == "recordings" else 0
+    batch = [_stack([s[5] for s in setups] + [setups[-1][5]] * pad), _stack(spaces + [spaces[-1]] * pad)]
+    batch += [None if a is None else np.concatenate([a] + [a[-1:]] * pad) for a in (prec, z0)]
+    if axis == "recordings":
+        keys = replicate(fold_keys(seed, runs), mesh)
+        batch = [jax.tree.map(lambda a: shard(a, mesh, axis), b) for b in batch]
+    else:
+        keys = shard(fold_keys(seed, padded_size(runs, devices)), mesh, axis)
+        batch = [jax.tree.map(lambda a: replicate(a, mesh), b) for b in batch]
+    args = (keys, *batch, hyperparameters(strategy))
+    cache_key = ("each", axis, structure_key(strategy), budget, memory, generations, len(devices), kernel_mode(), leaf_signature(args))
     t0 = time.perf_counter()
-    compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_each(strategy, budget, memory, generations, mesh, dim), args)
+    compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_each(strategy, budget, memory, generations, mesh, dim, axis), args)
     t1 = time.perf_counter()
-    outs = jax.block_until_ready(compiled(*args))
+    outs = jax.tree.map(to_host, jax.block_until_ready(compiled(*args)))
     t2 = time.perf_counter()
     results = []
     for b, (rec, box, space, start, _, prob) in enumerate(setups):

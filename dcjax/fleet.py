@@ -1,28 +1,16 @@
-"""Identify a fleet of motors in one compiled call, sharded across devices with `jax.sharding`.
-
-Recordings of equal length are stacked into one batched `Problem` pytree; the search is `vmap`ped
-over motors (and runs per motor) and the motor axis is sharded over every device JAX sees
-(`Mesh` + `NamedSharding`). The same code runs on one CPU, on several XLA host devices
-(`--xla_force_host_platform_device_count`), on a GPU, and across hosts after
-`jax.distributed.initialize()` (arrays are built with `jax.make_array_from_callback`, which every
-process calls with the same host data)."""
+"""A fleet of motors: one identification per recording through the batch runner
+(`dcjax.batch.identify_each`), with the motors split over every device JAX sees (and over the
+processes of `jax.distributed`: every process passes the same recordings and gets the whole,
+identical result). `FleetResult` is the fleet's table of best parameters beside each motor's full
+result; `fit_each` is the same with a failed result for a recording that cannot be fitted."""
 
 import dataclasses
-import time
 
-import equinox as eqx
-import jax
-import jax.numpy as jnp
 import numpy as np
 
-from .bounds import resolve_bounds
-from .models import get_model
-from .objectives import objective
-from .problem import make_problem
+from .batch import identify_each
 from .recording import Recording
-from .runner import fold_keys, mesh_of, padded_size, shard
-from .space import make_space
-from .strategies import make_strategy, run
+from .result import IdentificationResult
 
 
 @dataclasses.dataclass
@@ -33,37 +21,18 @@ class FleetResult:
     timing: dict
     settings: dict
     names: tuple[str, ...] = ()
+    results: list[IdentificationResult] = dataclasses.field(default_factory=list, repr=False)  # each motor's full result
 
     def to_dicts(self) -> list[dict[str, float]]:
         return [dict(zip(self.names, map(float, x))) for x in self.params]
 
 
-def _to_host(a: jax.Array) -> np.ndarray:
-    """The whole array on this host: gathered from every process after `jax.distributed`."""
-    if jax.process_count() > 1 and not a.is_fully_addressable:
-        from jax.experimental import multihost_utils
-
-        return np.asarray(multihost_utils.process_allgather(a, tiled=True))
-    return np.asarray(jax.device_get(a))
-
-
-def identify_fleet(
-    recordings: list[Recording],
-    method: str = "de-rand-1-exp",
-    integrator: str = "rk4",
-    nd: int = 1,
-    weights: tuple[float, ...] | None = None,
-    bounds=None,
-    runs: int = 1,
-    budget: int = 140_000,
-    seed: int = 0,
-    pop_size: int = 70,
-    devices: list | None = None,
-    model=None,
-    fixed: dict[str, float] | None = None,
-) -> FleetResult:
-    """One identification per recording (motor), all in one sharded call. Motor m, run r uses
-    key fold_in(fold_in(PRNGKey(seed), m), r), so results do not depend on the device count."""
+def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0, **options) -> FleetResult:
+    """One identification per recording (motor) of equal length in one compiled call;
+    `options` are those of `identify_each` (method, integrator, nd, weights, bounds (one for all),
+    budget, pop_size, polish, memory, precision, generations, model, fixed, i_limit). Run r of
+    every motor uses key fold_in(PRNGKey(seed), r), as a fit of that motor alone, whatever the
+    device count."""
     if not recordings or not all(isinstance(r, Recording) for r in recordings):
         raise ValueError("recordings must be a non-empty list of dcjax.Recording")
     n = {len(r) for r in recordings}
@@ -73,50 +42,21 @@ def identify_fleet(
         raise ValueError("either every recording of a fleet has a current limit or none has")
     if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
-    model = get_model(model)
-    space = make_space(model, resolve_bounds(model, bounds), fixed)
-    strategy = make_strategy(method, pop_size=pop_size)
-    problems = [make_problem(r, model=model, integrator=integrator, nd=nd, weights=weights) for r in recordings]
-    devices = devices or jax.devices()
-    m = len(recordings)
-    padded = padded_size(m, devices)
-    problems += [problems[-1]] * (padded - m)
-    stacked = jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *problems)
-    mesh = mesh_of(devices, "fleet")
-    arrays, static = eqx.partition(stacked, eqx.is_array)
-    arrays = jax.tree.map(lambda a: shard(a, mesh, "fleet"), arrays)
-    keys = shard(np.asarray(fold_keys(seed, padded, runs)), mesh, "fleet")
-
-    def motor(prob_arrays, motor_keys):
-        prob = eqx.combine(prob_arrays, static)
-        fn = lambda z: objective(space.to_physical(z), prob)
-        out = jax.vmap(lambda k: run(strategy, k, fn, budget, space.dim))(motor_keys)
-        best = jnp.argmin(out.best_f)
-        return space.to_physical(out.best_x[best]), out.best_f[best], out.fes
-
-    batched = jax.jit(jax.vmap(motor))
-    t0 = time.perf_counter()
-    compiled = batched.lower(arrays, keys).compile()
-    t1 = time.perf_counter()
-    x, f, fes = jax.block_until_ready(compiled(arrays, keys))
-    t2 = time.perf_counter()
-    x, f, fes = (_to_host(a)[:m] for a in (x, f, fes))
+    bounds = options.pop("bounds", None)
+    results = identify_each(recordings, bounds=[bounds] * len(recordings), runs=runs, seed=seed, **options)
+    first = results[0]
+    run_s = first.timing["batch_run_s"]
     return FleetResult(
-        params=x,
-        of=f,
-        fes=fes,
-        timing={"compile_s": t1 - t0, "run_s": t2 - t1, "devices": len(devices), "motors_per_s": m / (t2 - t1)},
-        settings={
-            "method": method,
-            "integrator": integrator,
-            "nd": nd,
-            "runs": runs,
-            "budget": budget,
-            "seed": seed,
-            "pop_size": pop_size,
-            "motors": m,
-            "model": model.name,
-            "fixed": space.fixed,
-        },
-        names=model.names,
+        params=np.array([[r.params[k] for k in r.names] for r in results]),
+        of=np.array([r.of for r in results]),
+        fes=np.array([r.fes for r in results]),
+        timing={
+            "compile_s": first.timing["compile_s"],
+            "run_s": run_s,
+            "devices": first.timing["devices"],
+            "motors_per_s": len(results) / run_s,
+        },  # fmt: skip
+        settings={**first.settings, "motors": len(results)},
+        names=first.names,
+        results=results,
     )

@@ -2,7 +2,7 @@
 devices JAX sees, and a small cache of dcjax's own compiled executables (shared by `identify`
 and the fleet).
 
-Run r's key is `fold_in(PRNGKey(seed), r)` (a fleet folds the motor index in first), so a run
+Run r's key is `fold_in(PRNGKey(seed), r)` (for every recording of a batch alike), so a run
 does not depend on how many others are made or on the device count. The leading axis is padded
 to a multiple of the device count and sharded (`NamedSharding`); padding is dropped afterwards."""
 
@@ -33,6 +33,23 @@ def padded_size(n: int, devices) -> int:
 
 def mesh_of(devices, axis: str) -> Mesh | None:
     return Mesh(np.array(devices), (axis,)) if len(devices) > 1 else None
+
+
+def to_host(a: jax.Array) -> np.ndarray:
+    """The whole array on this host: gathered from every process after `jax.distributed`."""
+    if jax.process_count() > 1 and not a.is_fully_addressable:
+        from jax.experimental import multihost_utils
+
+        return np.asarray(multihost_utils.process_allgather(a, tiled=True))
+    return np.asarray(jax.device_get(a))
+
+
+def replicate(host, mesh: Mesh | None):
+    """`host` whole on every device of the mesh (across processes too)."""
+    if mesh is None:
+        return jnp.asarray(host)
+    host = np.asarray(host)
+    return jax.make_array_from_callback(host.shape, NamedSharding(mesh, PartitionSpec()), lambda idx: host[idx])
 
 
 def shard(host: np.ndarray | jax.Array, mesh: Mesh | None, axis: str):

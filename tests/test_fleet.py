@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from dcjax import PARAM_NAMES, Recording, datasets
+from dcjax import identify
 from dcjax.fleet import identify_fleet
 from dcjax.reference import simulate_numpy
 
@@ -18,7 +19,7 @@ import json, numpy as np, sys
 sys.path.insert(0, {tests!r})
 from test_fleet import fleet_recordings
 from dcjax.fleet import identify_fleet
-r = identify_fleet(fleet_recordings(5), budget=2100, runs=2, seed=3)
+r = identify_fleet(fleet_recordings(5), budget=2100, runs=1, seed=3)
 print(json.dumps({{"x": r.params.tolist(), "of": r.of.tolist(), "dev": r.timing["devices"]}}))
 """
 
@@ -52,9 +53,13 @@ def test_sharded_fleet_equals_single_device():
 
 
 def test_fleet_recovers_motors():
+    """The fleet is the batch runner: each motor's full result, the bits of a fit of it alone."""
     recs = fleet_recordings(4, seed=1)
     r = identify_fleet(recs, runs=1, seed=0)
     assert r.params.shape == (4, 7) and np.all(r.fes == 140_000)
+    alone = identify(recs[2], runs=1, seed=0)
+    np.testing.assert_array_equal(r.results[2].run_params, alone.run_params)
+    assert r.results[2].success and r.results[2].nfev == alone.nfev
     for rec, x, of in zip(recs, r.params, r.of):
         truth = np.array([rec.metadata["true_params"][p] for p in PARAM_NAMES])
         assert of <= 1e-15

@@ -93,3 +93,9 @@ def residuals(params, problem: Problem) -> Float[Array, "*batch cn"]:
     traj = simulate(params, problem)
     outs = problem.model.output_index
     return jnp.concatenate([jnp.sqrt(problem.scale[j]) * (traj[..., o] - problem.y_meas[:, j]) for j, o in enumerate(outs)], axis=-1)
+
+
+def stacked_residuals(x, problems: list[Problem], weights: list[float]):
+    """Residuals of several recordings (a joint fit), each scaled by sqrt(its weight): sum r^2
+    is the weighted OF (eq. 24 per recording)."""
+    return jnp.concatenate([jnp.sqrt(w) * residuals(x, prob) for w, prob in zip(weights, problems)])

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from .objectives import residuals
+from .objectives import stacked_residuals
 from .problem import Problem
 from .space import Space
 
@@ -27,11 +27,6 @@ def _to_free(z, eps):
 def _to_unit(y):
     """z = (sin(y) + 1) / 2 lies in [0, 1] for every y, so the bounds always hold."""
     return 0.5 * (jnp.sin(y) + 1.0)
-
-
-def stacked_residuals(x, problems: list[Problem], weights: list[float]):
-    """Residuals of several recordings (a joint fit), each scaled by sqrt(its weight)."""
-    return jnp.concatenate([jnp.sqrt(w) * residuals(x, prob) for w, prob in zip(weights, problems)])
 
 
 def polish(

@@ -19,7 +19,7 @@ import numpy as np
 import optimistix as optx
 
 from .bounds import Bounds
-from .polish import stacked_residuals
+from .objectives import stacked_residuals
 from .problem import Problem
 from .space import Space, make_space
 

@@ -1,5 +1,5 @@
 """Regenerate data/MD1.csv … MD4.csv (+ JSON sidecars): emulated analogues of the paper's
-measured sets (Table 7), made by dcjax.emulate — NOT the paper's measurements.
+measured sets (Table 7), made by dcjax.io.emulate — NOT the paper's measurements.
 
     python data/generate_md.py            # writes next to this script
     python data/generate_md.py --check    # exit 1 if any file differs from a fresh generation
@@ -9,8 +9,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from dcjax.datasets import DATA_DIR, write_or_check
-from dcjax.emulate import emulate, md_settings
+from dcjax.io.datasets import DATA_DIR, write_or_check
+from dcjax.io.emulate import emulate, md_settings
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)

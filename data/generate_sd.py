@@ -9,7 +9,7 @@ import functools
 import sys
 from pathlib import Path
 
-from dcjax.datasets import DATA_DIR, SD_PARAMS, generate_sd, write_or_check
+from dcjax.io.datasets import DATA_DIR, SD_PARAMS, generate_sd, write_or_check
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__)

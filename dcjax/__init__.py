@@ -15,23 +15,26 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from .bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
+from .analysis.design import design_input  # noqa: E402
+from .analysis.estimate import initial_estimate  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
-from .each import FailedFit, fit_each  # noqa: E402
-from .estimate import initial_estimate  # noqa: E402
-from .fit import LTMA, RK4, STMA, AutoSubsteps, Euler, IndexedLTMA, fit, with_weights  # noqa: E402
-from .identify import identify  # noqa: E402
-from .loading import load_recording  # noqa: E402
+from .fitting.each import FailedFit, fit_each  # noqa: E402
+from .fitting.fit import LTMA, RK4, STMA, AutoSubsteps, Euler, IndexedLTMA, fit, with_weights  # noqa: E402
+from .fitting.identify import identify  # noqa: E402
+from .fitting.result import FitResult, IdentificationResult, load_result  # noqa: E402
+from .io import datasets  # noqa: E402
+from .io.loading import load_recording  # noqa: E402
+from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
 from .models import DC, MODELS, DCCoulomb, Model, get_model  # noqa: E402
-from .objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
-from .parameters import Parameter, Parameters  # noqa: E402
-from .params import PARAM_NAMES, Params  # noqa: E402
-from .recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
-from .result import FitResult, IdentificationResult, load_result  # noqa: E402
-from .space import Space, make_space  # noqa: E402
+from .models.bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
+from .models.parameters import Parameter, Parameters  # noqa: E402
+from .models.params import PARAM_NAMES, Params  # noqa: E402
+from .models.space import Space, make_space  # noqa: E402
+from .simulate.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
 from .version import __version__  # noqa: E402
 
 __all__ = [
+    "datasets",
     "__version__",
     "PARAM_NAMES",
     "Params",
@@ -69,6 +72,7 @@ __all__ = [
     "Parameter",
     "Parameters",
     "initial_estimate",
+    "design_input",
     "FitResult",
     "identify",
     "IdentificationResult",

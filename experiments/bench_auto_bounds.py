@@ -12,7 +12,7 @@ import numpy as np
 
 import dcjax
 from dcjax import datasets
-from dcjax.estimate import initial_estimate
+from dcjax.analysis.estimate import initial_estimate
 
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()

@@ -68,7 +68,7 @@ def _scipy() -> dict:
     from scipy.optimize import differential_evolution
 
     from dcjax import TABLE4, datasets
-    from dcjax.reference import objective_numpy
+    from dcjax.io.reference import objective_numpy
 
     rec = datasets.load("SD1")
     lo, hi = np.asarray(TABLE4.lower), np.asarray(TABLE4.upper)

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 
 import dcjax
 from dcjax import TABLE8, Params, load_csv, make_problem, objective
-from dcjax.datasets import DATA_DIR
+from dcjax.io.datasets import DATA_DIR
 from dcjax.strategies.compact import compacted
 from dcjax.strategies.memory import Memory
 

@@ -15,7 +15,7 @@ dcjax.use_compiled_loops()
 
 from dcjax import datasets, identify  # noqa: E402
 
-dcjax.identify_module = __import__("importlib").import_module("dcjax.identify")
+dcjax.identify_module = __import__("importlib").import_module("dcjax.fitting.identify")
 
 
 def main(repeats: int = 6, runs: int = 50):

@@ -1,6 +1,6 @@
 """Benchmark (issue 2): the simulation cost of one paper run, 140,000 RK4 simulations of SD1 in
 populations of 70 (2000 calls), JAX against the straightforward NumPy implementation
-(`dcjax.reference`), measured in the same process.
+(`dcjax.io.reference`), measured in the same process.
 
     .venv/bin/python -m experiments.bench_simulate [--numpy-calls 2000]
 """
@@ -15,8 +15,8 @@ import numpy as np
 
 import dcjax
 from dcjax import TABLE4, Params, datasets, make_problem, objective
-from dcjax.integrate import prepare, rk4_step
-from dcjax.reference import objective_numpy
+from dcjax.simulate.integrate import prepare, rk4_step
+from dcjax.io.reference import objective_numpy
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 dcjax.use_compiled_loops()

@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from dcjax import PARAM_NAMES, datasets, identify, load_csv
-from dcjax.datasets import DATA_DIR
-from dcjax.emulate import LAB_EFFECTS, Effects, emulate, md_settings
+from dcjax.io.datasets import DATA_DIR
+from dcjax.io.emulate import LAB_EFFECTS, Effects, emulate, md_settings
 
 # Paper Section 4.3 labels: integrator and ND.
 VARIANTS = {"EM": ("euler", 1), "EM5": ("euler", 5), "EM10": ("euler", 10), "RK": ("rk4", 1), "RK5": ("rk4", 5), "RK10": ("rk4", 10)}
 
-# Ablation cases of the emulated drive (`dcjax.emulate`): DriveSettings overrides of MD1–MD4
+# Ablation cases of the emulated drive (`dcjax.io.emulate`): DriveSettings overrides of MD1–MD4
 # ("lab" regenerates the data files). `sample_factor` k samples k times as often over the same span.
 NOISE = dict(noise_u=0.3, noise_i=0.5, noise_w=0.1, encoder_ppr=1024, speed_window=0.01)
 ABLATION_CASES: dict[str, dict] = {

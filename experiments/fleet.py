@@ -11,8 +11,8 @@ import numpy as np
 
 import dcjax
 from dcjax import PARAM_NAMES, Recording, datasets
-from dcjax.fleet import identify_fleet
-from dcjax.reference import simulate_numpy
+from dcjax.fitting.fleet import identify_fleet
+from dcjax.io.reference import simulate_numpy
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 dcjax.use_compiled_loops()

@@ -14,8 +14,8 @@ if n_proc > 1:
 import numpy as np  # noqa: E402
 
 from dcjax import PARAM_NAMES, Recording, datasets  # noqa: E402
-from dcjax.fleet import identify_fleet  # noqa: E402
-from dcjax.reference import simulate_numpy  # noqa: E402
+from dcjax.fitting.fleet import identify_fleet  # noqa: E402
+from dcjax.io.reference import simulate_numpy  # noqa: E402
 
 truth = np.array([datasets.true_params("SD1")[p] for p in PARAM_NAMES])
 x = truth * np.random.default_rng(0).uniform(0.8, 1.2, (5, 7))

@@ -1,4 +1,4 @@
-"""Optimal input design (`dcjax.design`): the Fisher information against finite differences of
+"""Optimal input design (`dcjax.analysis.design`): the Fisher information against finite differences of
 the independent NumPy integrator, the limits a design must respect, the predicted gain over the
 paper's step, the null directions, and the `dcjax design` command."""
 
@@ -11,8 +11,8 @@ import pytest
 
 import dcjax
 from dcjax import cli, datasets
-from dcjax.design import design_input, evaluate_input, information, null_parameters, template_problem
-from dcjax.reference import simulate_numpy
+from dcjax.analysis.design import design_input, evaluate_input, information, null_parameters, template_problem
+from dcjax.io.reference import simulate_numpy
 
 SD1 = datasets.true_params("SD1")
 NAMES = dcjax.DC.names

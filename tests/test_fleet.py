@@ -11,14 +11,14 @@ import pytest
 
 from dcjax import PARAM_NAMES, Recording, datasets
 from dcjax import identify
-from dcjax.fleet import identify_fleet
-from dcjax.reference import simulate_numpy
+from dcjax.fitting.fleet import identify_fleet
+from dcjax.io.reference import simulate_numpy
 
 CODE = """
 import json, numpy as np, sys
 sys.path.insert(0, {tests!r})
 from test_fleet import fleet_recordings
-from dcjax.fleet import identify_fleet
+from dcjax.fitting.fleet import identify_fleet
 r = identify_fleet(fleet_recordings(5), budget=2100, runs=1, seed=3)
 print(json.dumps({{"x": r.params.tolist(), "of": r.of.tolist(), "dev": r.timing["devices"]}}))
 """

@@ -12,7 +12,7 @@ import pytest
 
 from dcjax import PARAM_NAMES, TABLE4, datasets, identify, make_problem
 from dcjax.cli import main
-from dcjax.polish import polish_jit
+from dcjax.fitting.polish import polish_jit
 from dcjax.strategies import DERand1Exp
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -167,7 +167,7 @@ def test_repeated_identify_does_not_accumulate_memory_mappings(sd1, monkeypatch)
     def maps():
         return sum(1 for _ in open("/proc/self/maps"))
 
-    cache = sys.modules["dcjax.identify"].EXECUTABLES
+    cache = sys.modules["dcjax.fitting.identify"].EXECUTABLES
     cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
     monkeypatch.setattr(cache, "size", 2)  # fills after two calls: four more show whether evicted ones are freed
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
@@ -190,7 +190,7 @@ def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         np.testing.assert_array_equal(a.history, b.history)
         assert seen == sorted(seen) and seen[-1] == 1.0 and (memory is not None or len(seen) >= 10)
-        assert not sys.modules["dcjax.identify"]._METERS  # a meter lives for its call only
+        assert not sys.modules["dcjax.fitting.identify"]._METERS  # a meter lives for its call only
     assert main(["fit", "SD1", "--runs", "1", "--budget", "1400", "--progress", "--out", str(tmp_path)]) == 0
     assert "iterations (all runs)" in capsys.readouterr().err
 

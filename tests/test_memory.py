@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from dcjax import TABLE4, TABLE8, Params, identify, make_problem, objective
-from dcjax.precision import TABLE29, load_torque_precision, unit_precision
+from dcjax.models.precision import TABLE29, load_torque_precision, unit_precision
 from dcjax.strategies import make_strategy, run
 from dcjax.strategies.compact import bucket_sizes, compacted
 from dcjax.strategies.memory import MEMORY_KINDS, Memory

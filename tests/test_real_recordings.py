@@ -10,8 +10,8 @@ import pytest
 
 import dcjax
 from dcjax import cli, datasets
-from dcjax.each import FailedFit, fit_each, robust_outliers, summary_rows
-from dcjax.estimate import auto_bounds, initial_estimate
+from dcjax.fitting.each import FailedFit, fit_each, robust_outliers, summary_rows
+from dcjax.analysis.estimate import auto_bounds, initial_estimate
 from dcjax.models import get_model, model_spec
 
 SPEED_SCALE = 9.68 / 0.03  # 322.67: wheel speed in m/s behind a 9.68:1 gear on a 30 mm wheel

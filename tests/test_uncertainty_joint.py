@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem
-from dcjax.polish import polish_jit
-from dcjax.reference import simulate_numpy
-from dcjax.uncertainty import NOT, WELL, profile, uncertainty
+from dcjax.fitting.polish import polish_jit
+from dcjax.io.reference import simulate_numpy
+from dcjax.analysis.uncertainty import NOT, WELL, profile, uncertainty
 
 TRUE = datasets.true_params("SD1")
 X_TRUE = np.array([TRUE[n] for n in PARAM_NAMES])
@@ -116,7 +116,7 @@ def test_nd_auto_picks_the_first_nd_within_tolerance_of_a_diffrax_reference():
 
 
 def test_consistency_flags_disagreeing_fits():
-    from dcjax.uncertainty import CONSISTENT, INCONSISTENT, Uncertainty, consistency
+    from dcjax.analysis.uncertainty import CONSISTENT, INCONSISTENT, Uncertainty, consistency
 
     def fake(la, se_la):
         params = dict(TRUE, La=la)

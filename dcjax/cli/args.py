@@ -2,7 +2,7 @@
 
 import argparse
 
-from ..units import parse_mapping
+from ..io.units import parse_mapping
 
 
 def _floats(text: str, what: str, n: int | None = None) -> list[float]:

@@ -9,7 +9,7 @@ from .saved import _result
 def design_cmd(args) -> int:
     import numpy as np
 
-    from ..design import design_input, evaluate_input, noise_from_fit, scales_from_fit, write_design
+    from ..analysis.design import design_input, evaluate_input, noise_from_fit, scales_from_fit, write_design
 
     res = _result(args.result)
     m = res.model

@@ -3,18 +3,18 @@
 import sys
 from pathlib import Path
 
-from ..units import parse_mapping
+from ..io.units import parse_mapping
 from .args import _floats, _named_floats, _named_ranges
 
 
 def _load(data: str, args, model):
-    from .. import datasets
-    from ..loading import load_recording
+    from ..io import datasets
+    from ..io.loading import load_recording
 
     if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
         if any(getattr(args, k, None) for k in ("window", "every", "trim")):  # --columns, --units, --scale, --dt, --rate are for files
             rec = datasets.load(data)
-            from ..loading import preprocess
+            from ..io.loading import preprocess
 
             return preprocess(rec, args.window, args.every, args.trim)
         return datasets.load(data)
@@ -47,7 +47,7 @@ def _nd(text: str):
 def _bounds(args, model, rec):
     """--lower/--upper, --bounds (a preset or auto; default the sidecar's preset, else auto) and
     the --bound overrides over them. Returns (Bounds, start values of the auto estimate)."""
-    from ..bounds import Bounds, resolve_bounds
+    from ..models.bounds import Bounds, resolve_bounds
 
     if (args.lower is None) != (args.upper is None):
         raise ValueError("--lower and --upper must be given together")
@@ -59,7 +59,7 @@ def _bounds(args, model, rec):
     else:
         preset = args.bounds or (rec.metadata.get("bounds") if rec.metadata.get("bounds") in model.bounds else "auto")
         if preset.lower() == "auto":
-            from ..estimate import auto_bounds
+            from ..analysis.estimate import auto_bounds
 
             bounds, start, _ = auto_bounds(rec, model)
         else:
@@ -107,7 +107,7 @@ def _file_search(args, model, options, rec):
 
 
 def _fit_one(recs, args, model, options, progress):
-    from ..identify import identify
+    from ..fitting.identify import identify
 
     bounds, x0 = _file_search(args, model, options, recs[0])
     result = identify(recs, bounds=bounds, x0=x0, progress=progress, **options)
@@ -212,7 +212,7 @@ def fit(args) -> int:
 def fit_each_cmd(args, model, options) -> int:
     """`dcjax fit --each`: one fit per file, the files of one length in one compiled call; a file
     that fails to load, validate or fit is reported and the others are fitted."""
-    from ..each import FailedFit, _check, summary_rows, write_summary
+    from ..fitting.each import FailedFit, _check, summary_rows, write_summary
 
     out = Path(args.out)
     results: list = [None] * len(args.data)
@@ -256,8 +256,8 @@ def fit_each_cmd(args, model, options) -> int:
 def _fit_ready(ready, model, options) -> dict:
     """Index -> result (or the exception) of each validated file: in one `identify_each` call
     where the settings allow, else (and where that call fails) one `identify` each."""
-    from ..batch import identify_each
-    from ..identify import identify
+    from ..fitting.batch import identify_each
+    from ..fitting.identify import identify
 
     if not ready:
         return {}

@@ -6,7 +6,7 @@ from .fitting import _load
 
 
 def _result(path):
-    from ..result import load_result
+    from ..fitting.result import load_result
 
     return load_result(path)
 
@@ -30,8 +30,8 @@ def simulate_cmd(args) -> int:
 
 
 def validate_cmd(args) -> int:
-    from ..objectives import objective
-    from ..report import channel_fit
+    from ..analysis.report import channel_fit
+    from ..simulate.objectives import objective
 
     res = _result(args.result)
     out = Path(args.out)

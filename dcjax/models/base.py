@@ -8,13 +8,13 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
   `Recording`); `measured`: the states the objective compares with the recording (default all);
 - `bounds`: named bound presets `{preset: {name: (lower, upper)}}`, the first is the default;
 - `precision`: the memory-assistance duplicate precision per parameter (paper Table 29 for `DC`);
-- `quantities`: channel -> physical quantity (`dcjax.units.UNITS`), so a loader can convert units;
+- `quantities`: channel -> physical quantity (`dcjax.io.units.UNITS`), so a loader can convert units;
 - `limited_state`: the state the supply's limit clamps after every sub-step (`"i_a"` for a drive
   with a current limit), or None;
 - `coefficients(p)`: hoisted per-simulation quantities (1/La, Ra/La, ...) from the parameter dict;
 - `vector_field(c, u, y)`: dy/dt as a tuple, from the coefficients, the inputs and the states;
 - optionally `steady_state(p, channels)`: the model's stationary relations (dy/dt = 0) as
-  predicted channel values, used by `dcjax.validation.stationary_check` (paper eq. 25–26);
+  predicted channel values, used by `dcjax.analysis.validation.stationary_check` (paper eq. 25–26);
 - optionally `regression(y, dy, u)`: the state equations written linear in the parameters, for
   the equation-error first estimate (`dcjax.initial_estimate`); without it that estimate runs
   Levenberg–Marquardt on the derivative residual;
@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ..parameters import Parameter, Parameters
+from .parameters import Parameter, Parameters
 
 
 class Model(eqx.Module):

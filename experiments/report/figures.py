@@ -43,7 +43,7 @@ def response_figures(R: Results, L: list[str], figures: Path):
 
     md1 = R.get("MD1", "de-rand-1-exp", "RK") if "MD1" in R.p["md"] else None
     if md1 is not None:
-        from dcjax.report import fit_percent
+        from dcjax.analysis.report import fit_percent
 
         rec = recording("MD1")
         fig("fig16_md1_rk.png", "Fig. 16 analogue: MD1, the whole recording and the RK fit", rec, [("RK", md1["best"], "rk4", 1)])
@@ -115,8 +115,8 @@ def response_figures(R: Results, L: list[str], figures: Path):
 FIGURE_INDEX = [
     ("1, 3", "drive schematics", "no data: `dcjax.models.DC` implements eq. 6–7"),
     ("2", "SD1–SD4 responses", "Verdict (Fig. 2)"),
-    ("4, 17", "EM/RK algorithms, with ND sub-steps", "no data: `dcjax.integrate` (eq. 8–23, 28–29); checked in tests/test_simulate.py"),
-    ("5, 6", "the laboratory drive; preparing the measured data", "no data: `dcjax.emulate`, `dcjax.recording.trim_switch_on`"),
+    ("4, 17", "EM/RK algorithms, with ND sub-steps", "no data: `dcjax.simulate.integrate` (eq. 8–23, 28–29); checked in tests/test_simulate.py"),
+    ("5, 6", "the laboratory drive; preparing the measured data", "no data: `dcjax.io.emulate`, `dcjax.io.recording.trim_switch_on`"),
     ("7", "MD1–MD4 recordings", "Verdict (Table 7, Fig. 7)"),
     ("8–11", "EM vs RK fits of MD1–MD4", "Verdict (Figs. 8–11)"),
     ("12–15", "cross-validation", "Verdict (Figs. 12–15)"),

@@ -129,7 +129,7 @@ def section_table17(R: Results, L: list[str], mds: list[str]):
 
 
 def section_stationary_crossval(R, L, mds):
-    from dcjax.validation import cross_validation, stationary_check
+    from dcjax.analysis.validation import cross_validation, stationary_check
 
     rows, du_all, di_all = [], [], []
     for d in mds:

@@ -44,7 +44,7 @@ def section_ablation(R: Results, L: list[str]):
     count = lambda c, nd=1, fx="": sum(res[(d, c, nd, fx)][1] for d in mds if (d, c, nd, fx) in res)
     L += ["## Why RK's parameters differ on the emulated MD sets: ablation", ""]
     L += [
-        f"Each MD set re-emulated (`dcjax.emulate`, same motor, controller and seed; `lab` = the data files) with the "
+        f"Each MD set re-emulated (`dcjax.io.emulate`, same motor, controller and seed; `lab` = the data files) with the "
         "settings its case names, then fitted with "
         f"DE/rand/1/exp + RK ({ar} runs, Table 8 bounds). Cases: "
         + "; ".join(f"`{c}`: {_case_text(c)}" for c in p["ablation_cases"])
@@ -139,7 +139,7 @@ def _ablation_conclusions(res: dict, mds: list[str], specs: list, p: dict, label
 
 
 def _case_text(case: str) -> str:
-    from dcjax.emulate import Effects
+    from dcjax.io.emulate import Effects
 
     kw = dict(ABLATION_CASES[case])
     effects = kw.pop("effects", Effects())
@@ -176,7 +176,7 @@ def section_uncertainty(R: Results, L: list[str]):
         return
     L += ["## Uncertainty and the joint fit (Section 4.2.5: one drive, one parameter set)", ""]
     L += [
-        f"DE/rand/1/exp + RK, {ur} runs, LM polish; the best run's value ± standard error (`dcjax.uncertainty`); † = not well "
+        f"DE/rand/1/exp + RK, {ur} runs, LM polish; the best run's value ± standard error (`dcjax.analysis.uncertainty`); † = not well "
         "determined (relative standard error above 0.1, or at a bound).",
         "",
     ]

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .params import PARAM_NAMES
+from ..models.params import PARAM_NAMES
 from .recording import Recording, load_csv
 from .reference import simulate_numpy
 
@@ -26,7 +26,7 @@ SD_STEPS = 500
 
 # Shipped inside the package (so an installed dcjax runs `dcjax fit MD1`); the repository's
 # top-level data/ holds the same files beside their generators (tests check they are identical).
-DATA_DIR = Path(__file__).resolve().parent / "data"
+DATA_DIR = Path(__file__).resolve().parents[1] / "data"  # dcjax/data
 MD_NAMES = ("MD1", "MD2", "MD3", "MD4")
 EMBEDDED = tuple(SD_PARAMS) + MD_NAMES
 
@@ -49,7 +49,7 @@ def generate_sd(name: str) -> Recording:
     meta = {
         "source": "Jesenik et al. 2020, Tables 2-3 (simulated data, RK4)",
         "true_params": p,
-        "generator": "dcjax.datasets.generate_sd (NumPy RK4, eq. 14-23)",
+        "generator": "dcjax.io.datasets.generate_sd (NumPy RK4, eq. 14-23)",
         "u_a": SD_VOLTAGE,
         "dt": SD_DT,
         "computed_instants": SD_STEPS,

@@ -17,16 +17,16 @@ import jax
 import numpy as np
 from jax.sharding import PartitionSpec
 
+from ..io.recording import Recording
+from ..models import get_model
+from ..models.precision import unit_precision
+from ..simulate.kernel import kernel_mode
+from ..simulate.problem import make_problem
+from ..strategies import make_strategy
+from ..strategies.base import hyperparameters, run_batch, structure_key, with_hyperparameters
 from .identify import EXECUTABLES, _check_search, _fitness, _polish, _search_space, _settings, make_result
-from .kernel import kernel_mode
-from .models import get_model
-from .precision import unit_precision
-from .problem import make_problem
-from .recording import Recording
 from .result import IdentificationResult
 from .runner import fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
-from .strategies import make_strategy
-from .strategies.base import hyperparameters, run_batch, structure_key, with_hyperparameters
 
 
 def _stack(trees):

@@ -4,7 +4,7 @@ operation per scan step. On a GPU that removes the per-step kernel launches that
 (issue 14); on CPU the same kernel runs in Pallas' interpret mode, which the tests compare with
 the scan. Generic over the `Model`: the model's coefficients and vector field are traced inside
 the kernel, with Euler/RK4, ND sub-steps, eq. 29 interpolation, the clamp, channel weights and
-non-uniform time steps exactly as in `dcjax.integrate`."""
+non-uniform time steps exactly as in `dcjax.simulate.integrate`."""
 
 import functools
 import os
@@ -47,8 +47,8 @@ def kernel_compiles() -> bool:
 @functools.cache
 def _probe(backend: str) -> bool:
     """One block of the paper's motor (SD1's parameters) on 64 samples of a 220 V step."""
-    from .models import DC
-    from .recording import Recording
+    from ..io.recording import Recording
+    from ..models import DC
 
     t = np.arange(64) * 1e-4
     rec = Recording(t=t, u_a=np.full_like(t, 220.0), i_a=np.ones_like(t), omega=np.ones_like(t))

@@ -8,8 +8,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .models import Model, get_model
-from .recording import Recording
+from ..io.recording import Recording
+from ..models import Model, get_model
 
 Integrator = Literal["euler", "rk4"]
 INTEGRATORS = ("euler", "rk4")

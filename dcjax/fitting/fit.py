@@ -1,4 +1,4 @@
-"""`dcjax.fit`: one entry point in lmfit/optimistix vocabulary over the engine `identify`.
+"""`dcjax.fitting.fit`: one entry point in lmfit/optimistix vocabulary over the engine `identify`.
 
     params = dcjax.DC().parameters("table8"); params["Tlc"].set(value=0.0, vary=False)
     result = dcjax.fit(recording, params=params, method="de-rand-1-exp", integrator=dcjax.RK4(substeps=5), runs=50, polish=True)
@@ -13,12 +13,12 @@ from typing import Literal
 
 import equinox as eqx
 
+from ..io.recording import Recording
+from ..models import Model, get_model
+from ..models.parameters import Parameters
+from ..strategies import Strategy
 from .identify import identify
-from .models import Model, get_model
-from .parameters import Parameters
-from .recording import Recording
 from .result import IdentificationResult
-from .strategies import Strategy
 
 
 class Integrator(eqx.Module):
@@ -152,7 +152,7 @@ def fit(
     each recording's `joint_weight`).
 
     `params`: `Parameters` (ranges, fixed values, start values, precisions), a preset name
-    (`"table4"`, `"table8"`), `"auto"` (`dcjax.estimate.auto_bounds`: ranges from an
+    (`"table4"`, `"table8"`), `"auto"` (`dcjax.analysis.estimate.auto_bounds`: ranges from an
     equation-error first estimate, which also seeds the population), or None: the recordings'
     sidecar preset where they name one, else `"auto"`. `integrator`: `Euler(substeps=N)`,
     `RK4(substeps=N)` (the default, N = 1) or `AutoSubsteps(...)`. `method`: a strategy name or object

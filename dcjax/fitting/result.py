@@ -9,15 +9,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .bounds import Bounds
-from .models import Model, get_model, model_spec
-from .parameters import Parameter, Parameters
-from .problem import make_problem
-from .recording import Recording
-from .space import Space, make_space
+from ..io.recording import Recording
+from ..models import Model, get_model, model_spec
+from ..models.bounds import Bounds
+from ..models.parameters import Parameter, Parameters
+from ..models.space import Space, make_space
+from ..simulate.problem import make_problem
 
 if TYPE_CHECKING:
-    from .uncertainty import Uncertainty
+    from ..analysis.uncertainty import Uncertainty
 
 
 @dataclasses.dataclass
@@ -73,12 +73,12 @@ class IdentificationResult:
 
     def uncertainty(self, profile: str | None = None, profile_points: int = 11) -> "IdentificationResult":
         """A new result with standard errors, 95 % intervals, correlations and identifiability
-        verdicts at the best parameters (`dcjax.uncertainty`; in `.uncertainties`, and as each
+        verdicts at the best parameters (`dcjax.analysis.uncertainty`; in `.uncertainties`, and as each
         parameter's `stderr` in `.parameters`); fixed parameters are known. With `profile="Tla"`
         also a profile likelihood over the 95 % interval of that parameter
         (`.uncertainties.profile = (values, OFs)`). This result is not changed."""
-        from .uncertainty import profile as profile_fn
-        from .uncertainty import uncertainty
+        from ..analysis.uncertainty import profile as profile_fn
+        from ..analysis.uncertainty import uncertainty
 
         space = self.space
         x = np.array([self.params[n] for n in self.names])
@@ -203,7 +203,7 @@ class IdentificationResult:
         return out
 
     def to_dict(self) -> dict:
-        from .version import __version__
+        from ..version import __version__
 
         names = self.names
         return {
@@ -248,20 +248,20 @@ class IdentificationResult:
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
         """(N, S) states of the best parameters on `recording` (default: the fitted one)."""
-        from .objectives import simulate
+        from ..simulate.objectives import simulate
 
         prob = self.problems([recording or self.recording])[0]
         return np.asarray(simulate(np.array([self.params[n] for n in self.names]), prob))
 
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
-        convergence; see `dcjax.plotting.plot_result`."""
-        from .plotting import plot_result
+        convergence; see `dcjax.analysis.plotting.plot_result`."""
+        from ..analysis.plotting import plot_result
 
         return plot_result(self, path=path, **kw)
 
     def report(self) -> str:
-        from .report import fit_report
+        from ..analysis.report import fit_report
 
         return fit_report(self)
 
@@ -275,7 +275,7 @@ FitResult = IdentificationResult  # the 0.2 name
 def load_result(path: str | Path, recordings: list[Recording] | None = None, model: Model | str | None = None) -> IdentificationResult:
     """Restore a saved result (`result.json`) without refitting: parameters, runs, settings,
     model and (where their files are still there, or given as `recordings`) the recordings."""
-    from .loading import load_recording
+    from ..io.loading import load_recording
 
     path = Path(path)
     if not path.is_file():
@@ -298,7 +298,7 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
                     load_recording(src["path"], **{**(src.get("load") or {}), "model": m})
                 )  # the result's model names the channels
             elif src.get("embedded"):
-                from . import datasets
+                from ..io import datasets
 
                 recordings.append(datasets.load(src["embedded"]))
     hist_len = max((r.get("iterations", 0) for r in runs), default=0)

@@ -4,9 +4,9 @@ unit cube the strategies search (`dcjax.strategies.memory` knows only the latter
 import numpy as np
 from jaxtyping import ArrayLike
 
+from . import DC, Model
 from .bounds import Bounds
-from .models import DC, Model
-from .models.dc import TABLE29_PRECISION
+from .dc import TABLE29_PRECISION
 from .space import Space, make_space
 
 # Table 29 (the paper's model), physical units, in `DC.names` order.

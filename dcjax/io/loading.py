@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .models import Model, get_model
+from ..models import Model, get_model
 from .recording import Recording, read_sidecar, trim_switch_on
 from .units import select_channels
 

@@ -18,10 +18,10 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from .bounds import Bounds
-from .objectives import stacked_residuals
-from .problem import Problem
-from .space import Space, make_space
+from ..models.bounds import Bounds
+from ..models.space import Space, make_space
+from ..simulate.objectives import stacked_residuals
+from ..simulate.problem import Problem
 
 WELL, WEAK, NOT, FIXED = "well determined", "weakly determined", "not identifiable from this recording", "fixed (known)"
 

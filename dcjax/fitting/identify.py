@@ -10,19 +10,19 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec
 
-from .bounds import Bounds, resolve_bounds
-from .kernel import kernel_mode
-from .models import Model, get_model
-from .objectives import objective
-from .precision import physical_precision, unit_precision
-from .problem import check_positive_int, make_problem
-from .recording import Recording
+from ..io.recording import Recording
+from ..models import Model, get_model
+from ..models.bounds import Bounds, resolve_bounds
+from ..models.precision import physical_precision, unit_precision
+from ..models.space import Space, make_space
+from ..simulate.kernel import kernel_mode
+from ..simulate.objectives import objective
+from ..simulate.problem import check_positive_int, make_problem
+from ..strategies import Strategy, make_strategy
+from ..strategies.base import FitnessFn, hyperparameters, iteration_limit, run_batch, structure_key, with_hyperparameters
+from ..strategies.memory import MEMORY_KINDS
 from .result import IdentificationResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
-from .space import Space, make_space
-from .strategies import Strategy, make_strategy
-from .strategies.base import FitnessFn, hyperparameters, iteration_limit, run_batch, structure_key, with_hyperparameters
-from .strategies.memory import MEMORY_KINDS
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
 # (other weights, bounds or recordings of equal length) reuse them.
@@ -139,10 +139,10 @@ def start_values(x0, model: Model, space: Space) -> np.ndarray | None:
 
 def _search_space(recordings, model, bounds, fixed, x0):
     """(bounds, space, start values, start values in the unit cube); `bounds="auto"` estimates
-    the ranges (`dcjax.estimate.auto_bounds`) and, where no `x0` is given, seeds the search with
+    the ranges (`dcjax.analysis.estimate.auto_bounds`) and, where no `x0` is given, seeds the search with
     the estimate."""
     if isinstance(bounds, str) and bounds.lower() == "auto":
-        from .estimate import auto_bounds
+        from ..analysis.estimate import auto_bounds
 
         bounds, start, _ = auto_bounds(recordings, model)
         x0 = x0 if x0 is not None else {n: v for n, v in start.items() if n not in (fixed or {})} or None
@@ -363,10 +363,10 @@ def make_result(recordings, model, space, out, polished, settings: dict, timing:
 
 def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
     """Fit at ND = 1; at its best parameters compare the simulation at ND = 1, 2, 4, ... with an
-    adaptive diffrax reference (`dcjax.reference_solve`) and take the first ND whose error (max
+    adaptive diffrax reference (`dcjax.simulate.reference_solve`) and take the first ND whose error (max
     over channels of max |y - y_ref| / max |y_measured|) is at most `nd_tol`; refit there, and
     repeat from that fit until the ND stays (at most 3 rounds)."""
-    from .reference_solve import reference_simulate_jit, simulation_error
+    from ..simulate.reference_solve import reference_simulate_jit, simulation_error
 
     res = identify(recordings, nd=1, **kw)
 

@@ -9,8 +9,8 @@ import numpy as np
 import numpy.typing as npt
 from jaxtyping import Array, ArrayLike, Float
 
-from .models import DC, Model
-from .models.dc import TABLE4_LIMITS, TABLE8_LIMITS
+from . import DC, Model
+from .dc import TABLE4_LIMITS, TABLE8_LIMITS
 
 
 class Bounds(eqx.Module):

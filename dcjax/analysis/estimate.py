@@ -28,11 +28,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .models import Model, get_model
-from .objectives import objective
-from .parameters import Parameter, Parameters
-from .problem import make_problem
-from .recording import Recording
+from ..io.recording import Recording
+from ..models import Model, get_model
+from ..models.parameters import Parameter, Parameters
+from ..simulate.objectives import objective
+from ..simulate.problem import make_problem
 
 CUTOFFS = np.array([0.4, 0.2, 0.1, 0.05, 0.025])  # candidate cutoffs, fractions of the sampling rate
 LM_STARTS = 63  # random LM starts of a model without `regression` (besides the midpoints)
@@ -341,7 +341,7 @@ def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | 
     """`bounds="auto"`: (Bounds, start values) from `initial_estimate` of each recording — the
     union of their ranges, and the first recording's values as start values (they seed the
     initial population)."""
-    from .bounds import Bounds
+    from ..models.bounds import Bounds
 
     m = get_model(model)
     recs = recordings if isinstance(recordings, (list, tuple)) else [recordings]

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .models import get_model
-from .parameters import Parameters
-from .problem import make_problem
-from .recording import Recording
+from ..io.recording import Recording
+from ..models import get_model
+from ..models.parameters import Parameters
+from ..simulate.problem import make_problem
 from .result import IdentificationResult
 
 OUTLIER_Z = 3.5  # modified z-score (Iglewicz & Hoaglin): 0.6745 |x - median| / MAD
@@ -41,16 +41,16 @@ def fit_each(
     load: Callable[[str], Recording] | None = None,
     **options,
 ) -> list[IdentificationResult | FailedFit]:
-    """`dcjax.fit` on each recording on its own (not a joint fit), with the same options
+    """`dcjax.fitting.fit` on each recording on its own (not a joint fit), with the same options
     (`integrator`, `runs`, `budget`, `seed`, `memory`, `polish`, `progress`).
 
     `items`: recordings, or paths loaded with `load` (default `dcjax.load_recording` with the
     model). A recording that fails to load, validate or fit gets a `FailedFit` with its one-line
     error and every other one is fitted. `params=None` takes each recording's sidecar preset,
     else `"auto"`. Recordings of one length (and channels, limit, weights) are fitted in one
-    compiled call (`dcjax.batch.identify_each`: the same results as one fit each); with
+    compiled call (`dcjax.fitting.batch.identify_each`: the same results as one fit each); with
     `AutoSubsteps` or `progress` they are fitted one after another."""
-    from .loading import load_recording
+    from ..io.loading import load_recording
 
     m = get_model(model)
     loader = load or (lambda p: load_recording(p, model=m))
@@ -137,7 +137,7 @@ def robust_outliers(values: np.ndarray, z: float = OUTLIER_Z) -> np.ndarray:
 def summary_rows(results: Sequence[IdentificationResult | FailedFit], model=None) -> list[dict]:
     """One row per recording: status, error, OF, parameters, fit % per channel, at-bound
     parameters and the outlier flags (`robust_outliers` of the OF and of each free parameter)."""
-    from .report import channel_fit
+    from ..analysis.report import channel_fit
 
     m = get_model(model) if model is not None else next((r.model for r in results if isinstance(r, IdentificationResult)), get_model())
     rows = []

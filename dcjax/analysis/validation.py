@@ -3,10 +3,10 @@ and cross-validation between recordings of one drive (Section 4.2.6, Fig. 12).""
 
 import numpy as np
 
-from .models import Model, get_model
-from .objectives import objective
-from .problem import make_problem
-from .recording import Recording
+from ..io.recording import Recording
+from ..models import Model, get_model
+from ..simulate.objectives import objective
+from ..simulate.problem import make_problem
 
 
 def stationary_instants(

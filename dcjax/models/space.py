@@ -11,8 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from . import Model
 from .bounds import Bounds
-from .models import Model
 
 
 class Space(eqx.Module):

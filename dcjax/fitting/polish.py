@@ -7,9 +7,9 @@ import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from .objectives import stacked_residuals
-from .problem import Problem
-from .space import Space
+from ..models.space import Space
+from ..simulate.objectives import stacked_residuals
+from ..simulate.problem import Problem
 
 
 class PolishResult(eqx.Module):

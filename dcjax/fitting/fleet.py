@@ -1,5 +1,5 @@
 """A fleet of motors: one identification per recording through the batch runner
-(`dcjax.batch.identify_each`), with the motors split over every device JAX sees (and over the
+(`dcjax.fitting.batch.identify_each`), with the motors split over every device JAX sees (and over the
 processes of `jax.distributed`: every process passes the same recordings and gets the whole,
 identical result). `FleetResult` is the fleet's table of best parameters beside each motor's full
 result; `fit_each` is the same with a failed result for a recording that cannot be fitted."""
@@ -8,8 +8,8 @@ import dataclasses
 
 import numpy as np
 
+from ..io.recording import Recording
 from .batch import identify_each
-from .recording import Recording
 from .result import IdentificationResult
 
 

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .params import PARAM_NAMES
+from ..models.params import PARAM_NAMES
 from .recording import Recording
 
 
@@ -183,7 +183,7 @@ def emulate(s: DriveSettings) -> Recording:
         q = 2.0 * math.pi / (e.encoder_ppr * e.speed_window)
         w = np.round(w / q) * q
     meta = {
-        "source": "emulated laboratory drive (dcjax.emulate), NOT the paper's measurements",
+        "source": "emulated laboratory drive (dcjax.io.emulate), NOT the paper's measurements",
         "true_params": dict(s.params),
         "settings": {k: v for k, v in dataclasses.asdict(s).items() if k not in ("params", "name")},
         "n_points": s.n_samples,

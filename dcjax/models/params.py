@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .models.dc import NAMES, UNITS
+from .dc import NAMES, UNITS
 
 PARAM_NAMES: tuple[str, ...] = NAMES
 PARAM_UNITS: dict[str, str] = UNITS

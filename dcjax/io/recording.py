@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .models import get_model
+from ..models import get_model
 from .units import select_channels
 
 COLUMNS = ("t", "u_a", "i_a", "omega")

@@ -1,0 +1,27 @@
+"""The search and its result: `fit` (one entry point) over the engine `identify`, the runner
+(keys, sharding, the executable cache), batches of recordings (`identify_each`, `fit_each`, the
+fleet), the Levenberg-Marquardt polish, and the `FitResult` with its save/load."""
+
+from .batch import identify_each
+from .each import FailedFit, fit_each
+from .fit import LTMA, RK4, STMA, AutoSubsteps, Euler, IndexedLTMA, fit, with_weights
+from .identify import identify
+from .result import FitResult, IdentificationResult, load_result
+
+__all__ = [
+    "LTMA",
+    "RK4",
+    "STMA",
+    "AutoSubsteps",
+    "Euler",
+    "FailedFit",
+    "FitResult",
+    "IdentificationResult",
+    "IndexedLTMA",
+    "fit",
+    "fit_each",
+    "identify",
+    "identify_each",
+    "load_result",
+    "with_weights",
+]

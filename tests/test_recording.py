@@ -71,6 +71,14 @@ def test_csv_roundtrip(tmp_path):
     assert back.i_a_limit == 3.5 and back.name == "x" and back.metadata["note"] == "hi"
 
 
+def test_limit_is_the_generic_name_of_the_current_limit():
+    rec = _rec(limit=3.5)
+    assert rec.limit == rec.i_a_limit == 3.5 and rec == _rec(i_a_limit=3.5)
+    assert rec.replace(i_a_limit=2.0).limit == 2.0 and rec.replace(limit=None).i_a_limit is None
+    with pytest.raises(ValueError, match="give the limit once"):
+        _rec(limit=3.5, i_a_limit=2.0)
+
+
 @pytest.mark.parametrize(
     "text,match",
     [

@@ -70,7 +70,7 @@ def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u: n
     for s in model.outputs:  # placeholders (replaced below): zero initial state, a non-zero peak for make_problem
         chans[s] = np.zeros_like(t)
         chans[s][-1] = 1.0
-    rec = Recording(t=t, channels=chans, i_a_limit=i_limit)
+    rec = Recording(t=t, channels=chans, limit=i_limit)
     prob = make_problem(rec, model=model, integrator="rk4", nd=2, i_limit=i_limit)
     x = jnp.asarray([params[n] for n in model.names])
     sim = simulate(x, prob)
@@ -353,7 +353,7 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
     chans = {m.inputs[0]: np.asarray(u, float), **{s: sim[:, k] for k, s in enumerate(m.states)}}
     for c in m.inputs[1:]:
         chans[c] = np.zeros_like(t)
-    rec = Recording(t=t, channels=chans, i_a_limit=i_limit, name="design")
+    rec = Recording(t=t, channels=chans, limit=i_limit, name="design")
     per = max(1, int(round(hold / (t[1] - t[0]))))
     return Design(
         recording=rec,
@@ -381,7 +381,7 @@ def evaluate_input(design: Design, model: Model | str | None, u: np.ndarray, t: 
         design.params,
         t,
         np.asarray(u, float),
-        design.recording.i_a_limit,
+        design.recording.limit,
         design.free,
         sigma,
         design.criterion,
@@ -447,7 +447,7 @@ def write_design(design: Design, baselines: dict[str, Design], folder, model) ->
         "duration_s": float(rec.t[-1] - rec.t[0]),
         "dt_s": float(rec.t[1] - rec.t[0]),
         "levels": design.levels.tolist(),
-        "i_limit": rec.i_a_limit,
+        "i_limit": rec.limit,
         "noise": design.noise,
         "params": design.params,
         "free": list(design.free),

@@ -17,7 +17,7 @@ def design_cmd(args) -> int:
     if noise is None:
         noise = noise_from_fit(res)
     rec = res.recording
-    limit = args.i_limit if args.i_limit is not None else res.settings.get("i_limit") or (rec.i_a_limit if rec is not None else None)
+    limit = args.i_limit if args.i_limit is not None else res.settings.get("i_limit") or (rec.limit if rec is not None else None)
     for name, v in (("--starts", args.starts), ("--steps", args.steps)):
         if v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v}")

@@ -5,7 +5,7 @@
 
 Configuration is typed: integrators (`Euler`, `RK4`, `AutoSubsteps`) and memories (`STMA`, `LTMA`,
 `IndexedLTMA`) are small objects; what belongs to the data (channel weights, the current limit,
-a joint fit's weights) lives with the recordings (`with_weights`, `Recording.i_a_limit`); what
+a joint fit's weights) lives with the recordings (`with_weights`, `Recording.limit`); what
 belongs to the search (population size, F, CR) with the strategy object (`dcjax.strategies.DERand1Exp(pop_size=40, f=0.5)`)."""
 
 from collections.abc import Mapping, Sequence

@@ -38,7 +38,7 @@ def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0,
     n = {len(r) for r in recordings}
     if len(n) != 1:
         raise ValueError(f"fleet recordings must have equal length, got lengths {sorted(n)}")
-    if {r.i_a_limit is None for r in recordings} == {True, False}:
+    if {r.limit is None for r in recordings} == {True, False}:
         raise ValueError("either every recording of a fleet has a current limit or none has")
     if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
         raise ValueError(f"runs must be a positive integer, got {runs!r}")

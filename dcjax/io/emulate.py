@@ -190,7 +190,7 @@ def emulate(s: DriveSettings) -> Recording:
         "first_sample_delay": s.delay,
         "bounds": "table8",
     }
-    return Recording(t=t, u_a=u, i_a=i, omega=w, i_a_limit=s.i_limit, name=s.name, metadata=meta)
+    return Recording(t=t, u_a=u, i_a=i, omega=w, limit=s.i_limit, name=s.name, metadata=meta)
 
 
 # The emulated drive: one motor for MD1–MD4 (values near the paper's RK results, Table 17).

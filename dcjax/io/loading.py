@@ -194,7 +194,7 @@ def load_recording(
     meta = read_sidecar(path)
     limit = i_limit if i_limit is not None else meta.get("i_a_limit")
     t = chans.pop("t")
-    rec = Recording(t=t, channels=chans, i_a_limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
+    rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
     rec = preprocess(rec, window, every, trim)
     load = {
         "columns": columns or None,

@@ -20,15 +20,17 @@ DC_CHANNELS = COLUMNS[1:]
 
 class Recording:
     """A validated response: strictly increasing time `t` (s), equally long finite channels,
-    the supply's current limit `i_a_limit` (A) or None, a name and free-form metadata.
+    the clamp `limit` on the model's `limited_state` (for the DC models the supply's current
+    limit in A; `i_a_limit=` and `.i_a_limit` are the paper's name for it) or None, a name and
+    free-form metadata.
 
     `Recording(t=..., u_a=..., i_a=..., omega=...)` for the paper's channels, or
     `Recording(t=..., channels={"u_a": ..., "i_a": ..., "omega": ..., "theta": ...})`.
     Channels are read as attributes (`rec.i_a`) or by `rec[name]`."""
 
-    __slots__ = ("t", "channels", "i_a_limit", "name", "metadata")
+    __slots__ = ("t", "channels", "limit", "name", "metadata")
 
-    def __init__(self, t, u_a=None, i_a=None, omega=None, *, channels=None, i_a_limit=None, name: str = "", metadata=None):
+    def __init__(self, t, u_a=None, i_a=None, omega=None, *, channels=None, limit=None, i_a_limit=None, name: str = "", metadata=None):
         object.__setattr__(self, "name", str(name or ""))
         chans = dict(channels or {})
         for key, v in (("u_a", u_a), ("i_a", i_a), ("omega", omega)):
@@ -60,20 +62,29 @@ class Recording:
         if np.any(dt <= 0):
             k = int(np.flatnonzero(dt <= 0)[0])
             raise ValueError(f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
-        limit = i_a_limit
+        if limit is not None and i_a_limit is not None and limit != i_a_limit:
+            raise ValueError(f"{self._where()}give the limit once: limit={limit!r} and i_a_limit={i_a_limit!r}")
+        given = limit = limit if limit is not None else i_a_limit
         if limit is not None:
             try:
                 limit = float(limit)
             except (TypeError, ValueError):
                 limit = float("nan")
             if not np.isfinite(limit) or limit <= 0:
-                raise ValueError(f"{self._where()}current limit must be a positive number, got {i_a_limit!r}")
+                raise ValueError(
+                    f"{self._where()}limit must be a positive number (the clamp on the limited state, e.g. the supply's current limit), got {given!r}"
+                )
         for a in (tt, *arrays.values()):
             a.setflags(write=False)
         object.__setattr__(self, "t", tt)
         object.__setattr__(self, "channels", arrays)
-        object.__setattr__(self, "i_a_limit", limit)
+        object.__setattr__(self, "limit", limit)
         object.__setattr__(self, "metadata", dict(metadata or {}))
+
+    @property
+    def i_a_limit(self) -> float | None:
+        """The paper's name for `limit` (the supply's current limit of a DC drive)."""
+        return self.limit
 
     def __getattr__(self, key):
         try:
@@ -96,7 +107,7 @@ class Recording:
             return NotImplemented
         return (
             self.name == other.name
-            and self.i_a_limit == other.i_a_limit
+            and self.limit == other.limit
             and np.array_equal(self.t, other.t)
             and self.channels.keys() == other.channels.keys()
             and all(np.array_equal(self.channels[k], other.channels[k]) for k in self.channels)
@@ -105,7 +116,7 @@ class Recording:
     __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
-        return f"Recording(name={self.name!r}, n={len(self)}, channels={list(self.channels)}, i_a_limit={self.i_a_limit})"
+        return f"Recording(name={self.name!r}, n={len(self)}, channels={list(self.channels)}, limit={self.limit})"
 
     def _where(self) -> str:
         name = object.__getattribute__(self, "name")
@@ -115,13 +126,15 @@ class Recording:
         return self.t.shape[0]
 
     def replace(self, **changes) -> "Recording":
-        """A copy with fields (`t`, `i_a_limit`, `name`, `metadata`, `channels`) or single
-        channels (`i_a=...`) replaced."""
+        """A copy with fields (`t`, `limit` (or `i_a_limit`), `name`, `metadata`, `channels`) or
+        single channels (`i_a=...`) replaced."""
         chans = dict(changes.pop("channels", self.channels))
+        if "i_a_limit" in changes:
+            changes["limit"] = changes.pop("i_a_limit")
         for k in list(changes):
-            if k not in ("t", "i_a_limit", "name", "metadata"):
+            if k not in ("t", "limit", "name", "metadata"):
                 chans[k] = changes.pop(k)
-        kw = {"t": self.t, "i_a_limit": self.i_a_limit, "name": self.name, "metadata": self.metadata, **changes}
+        kw = {"t": self.t, "limit": self.limit, "name": self.name, "metadata": self.metadata, **changes}
         return Recording(channels=chans, **kw)
 
     @classmethod
@@ -170,7 +183,7 @@ def load_csv(path: str | Path, name: str | None = None) -> Recording:
     return Recording(
         t=data[:, 0],
         channels={h: data[:, k] for k, h in enumerate(header) if k},
-        i_a_limit=meta.get("i_a_limit"),
+        limit=meta.get("i_a_limit"),
         name=name or meta.get("name") or path.stem,
         metadata=meta,
     )
@@ -198,7 +211,7 @@ def save_csv(recording: Recording, path: str | Path, metadata: dict | None = Non
     lines = [",".join(["t", *names])]
     lines += [",".join(repr(float(c[k])) for c in cols) for k in range(len(recording))]
     path.write_text("\n".join(lines) + "\n")
-    meta = {**recording.metadata, **(metadata or {}), "name": recording.name, "i_a_limit": recording.i_a_limit}
+    meta = {**recording.metadata, **(metadata or {}), "name": recording.name, "i_a_limit": recording.limit}
     path.with_suffix(".json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
 
 
@@ -232,4 +245,4 @@ def recording_from_table(
         raise ValueError("table must be a DataFrame, a dict of arrays or a structured array")
     chans = select_channels(cols, m.channels, columns, units, m.quantities, scale=scale, dt=dt, rate=rate)
     t = chans.pop("t")
-    return Recording(t=t, channels=chans, i_a_limit=i_limit, name=name)
+    return Recording(t=t, channels=chans, limit=i_limit, name=name)

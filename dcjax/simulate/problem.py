@@ -80,7 +80,7 @@ def make_problem(
     - `initial`: initial state by state name; default the recording's first sample (a state the
       recording lacks starts at 0). `i0`, `w0`: the same for the paper's i_a and omega.
     - `i_limit`: the supply's limit on `model.limited_state`; default the recording's
-      `i_a_limit` (None: no limit).
+      `limit` (None: no limit).
     """
     model = get_model(model)
     if integrator not in INTEGRATORS:
@@ -112,7 +112,7 @@ def make_problem(
         u[:, 0] = float(voltage)
     if not np.all(np.isfinite(u)):
         raise ValueError("voltage must be finite")
-    limit = recording.i_a_limit if i_limit is None else float(i_limit)
+    limit = recording.limit if i_limit is None else float(i_limit)
     if limit is not None and not limit > 0:
         raise ValueError(f"current limit must be positive, got {limit}")
     y = np.stack([recording[c] for c in outs], axis=1)

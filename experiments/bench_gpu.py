@@ -22,9 +22,9 @@ dcjax.use_compiled_loops()
 
 from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem  # noqa: E402
 from dcjax.fitting.fleet import identify_fleet  # noqa: E402
+from dcjax.io.reference import simulate_numpy  # noqa: E402
 from dcjax.simulate.kernel import objective_kernel_jit  # noqa: E402
 from dcjax.simulate.objectives import objective  # noqa: E402
-from dcjax.io.reference import simulate_numpy  # noqa: E402
 
 
 def best_of(f, *args, repeats=5):

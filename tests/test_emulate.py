@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from dcjax import Params, Recording, load_csv, make_problem, objective, simulate
-from dcjax.io.emulate import MOTOR, DriveSettings, Effects, emulate, emulate_trace, md_settings
 from dcjax.analysis.validation import cross_validation, stationary_check, stationary_instants
+from dcjax.io.emulate import MOTOR, DriveSettings, Effects, emulate, emulate_trace, md_settings
 
 ROOT = Path(__file__).resolve().parent.parent
 MDS = ("MD1", "MD2", "MD3", "MD4")

@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, Recording, datasets
-from dcjax import identify
+from dcjax import PARAM_NAMES, Recording, datasets, identify
 from dcjax.fitting.fleet import identify_fleet
 from dcjax.io.reference import simulate_numpy
 

@@ -10,8 +10,8 @@ import pytest
 
 import dcjax
 from dcjax import cli, datasets
-from dcjax.fitting.each import FailedFit, fit_each, robust_outliers, summary_rows
 from dcjax.analysis.estimate import auto_bounds, initial_estimate
+from dcjax.fitting.each import FailedFit, fit_each, robust_outliers, summary_rows
 from dcjax.models import get_model, model_spec
 
 SPEED_SCALE = 9.68 / 0.03  # 322.67: wheel speed in m/s behind a 9.68:1 gear on a 30 mm wheel
@@ -98,7 +98,7 @@ def test_initial_estimate_is_linear_least_squares_of_the_regression(sd1):
     from scipy.signal import butter, filtfilt
 
     est = initial_estimate(sd1, cutoff=2000.0, border=5)
-    b, a = butter(4, 2000.0 / 5000.0)
+    b, a = butter(4, 2000.0 / 5000.0)  # pyright: ignore  (scipy stubs: butter may return None)
     i, w = filtfilt(b, a, sd1.i_a), filtfilt(b, a, sd1.omega)
     di, dw = np.gradient(i, 1e-4), np.gradient(w, 1e-4)
     s = slice(5, -5)

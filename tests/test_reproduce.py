@@ -74,7 +74,7 @@ def test_unknown_suite_is_an_error():
         _plan(["suites=[tables]"])
 
 
-def _reproduce(tmp, *extra, wait=True):
+def _command(tmp, *extra) -> list[str]:
     cmd = [
         sys.executable,
         "-m",
@@ -86,9 +86,15 @@ def _reproduce(tmp, *extra, wait=True):
         f"hydra.run.dir={tmp}/hydra",
         *extra,
     ]
-    if wait:
-        return subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900)
-    return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return cmd
+
+
+def _reproduce(tmp, *extra) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(_command(tmp, *extra), cwd=ROOT, capture_output=True, text=True, timeout=900)
+
+
+def _start_reproduce(tmp, *extra) -> subprocess.Popen:
+    return subprocess.Popen(_command(tmp, *extra), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
 def test_smoke_profile_end_to_end(tmp_path):
@@ -125,7 +131,7 @@ def uninterrupted(tmp_path_factory):
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_interrupted_reproduction_resumes_to_the_same_report(tmp_path, sig, uninterrupted):
-    proc = _reproduce(tmp_path, SMALL, "pause_s=5", wait=False)  # 5 s before each cell: the kill lands in the second
+    proc = _start_reproduce(tmp_path, SMALL, "pause_s=5")  # 5 s before each cell: the kill lands in the second
     store = Store(tmp_path / "store.jsonl")
     t0 = time.time()
     while not store.cells() and time.time() - t0 < 300:

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem
+from dcjax.analysis.uncertainty import NOT, WELL, profile, uncertainty
 from dcjax.fitting.polish import polish_jit
 from dcjax.io.reference import simulate_numpy
-from dcjax.analysis.uncertainty import NOT, WELL, profile, uncertainty
 
 TRUE = datasets.true_params("SD1")
 X_TRUE = np.array([TRUE[n] for n in PARAM_NAMES])

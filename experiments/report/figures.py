@@ -115,7 +115,11 @@ def response_figures(R: Results, L: list[str], figures: Path):
 FIGURE_INDEX = [
     ("1, 3", "drive schematics", "no data: `dcjax.models.DC` implements eq. 6–7"),
     ("2", "SD1–SD4 responses", "Verdict (Fig. 2)"),
-    ("4, 17", "EM/RK algorithms, with ND sub-steps", "no data: `dcjax.simulate.integrate` (eq. 8–23, 28–29); checked in tests/test_simulate.py"),
+    (
+        "4, 17",
+        "EM/RK algorithms, with ND sub-steps",
+        "no data: `dcjax.simulate.integrate` (eq. 8–23, 28–29); checked in tests/test_simulate.py",
+    ),
     ("5, 6", "the laboratory drive; preparing the measured data", "no data: `dcjax.io.emulate`, `dcjax.io.recording.trim_switch_on`"),
     ("7", "MD1–MD4 recordings", "Verdict (Table 7, Fig. 7)"),
     ("8–11", "EM vs RK fits of MD1–MD4", "Verdict (Figs. 8–11)"),

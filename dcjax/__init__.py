@@ -30,7 +30,7 @@ from .models.bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
 from .models.parameters import Parameter, Parameters  # noqa: E402
 from .models.params import PARAM_NAMES, Params  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
-from .simulate.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
+from .simulation.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
 from .version import __version__  # noqa: E402
 
 __all__ = [

@@ -64,7 +64,7 @@ def _padding(lanes: int) -> dict:
 
     dcjax.use_host_devices()
     dcjax.use_compiled_loops()
-    import dcjax.simulate.objectives as objectives
+    import dcjax.simulation.objectives as objectives
     from dcjax import datasets, identify
 
     objectives.LANES = lanes

@@ -23,8 +23,8 @@ dcjax.use_compiled_loops()
 from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem  # noqa: E402
 from dcjax.fitting.fleet import identify_fleet  # noqa: E402
 from dcjax.io.reference import simulate_numpy  # noqa: E402
-from dcjax.simulate.kernel import objective_kernel_jit  # noqa: E402
-from dcjax.simulate.objectives import objective  # noqa: E402
+from dcjax.simulation.kernel import objective_kernel_jit  # noqa: E402
+from dcjax.simulation.objectives import objective  # noqa: E402
 
 
 def best_of(f, *args, repeats=5):
@@ -46,7 +46,7 @@ def main():
     args = ap.parse_args()
     dev = jax.devices()
     print(
-        f"device: {dev[0].device_kind} x {len(dev)} ({jax.default_backend()}), jax {jax.__version__}, kernel mode {dcjax.simulate.kernel.kernel_mode()}"
+        f"device: {dev[0].device_kind} x {len(dev)} ({jax.default_backend()}), jax {jax.__version__}, kernel mode {dcjax.simulation.kernel.kernel_mode()}"
     )
     sd1 = datasets.load("SD1")
     print("| work | compile s | run s | result |\n|---|---|---|---|")

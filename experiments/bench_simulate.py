@@ -16,7 +16,7 @@ import numpy as np
 import dcjax
 from dcjax import TABLE4, Params, datasets, make_problem, objective
 from dcjax.io.reference import objective_numpy
-from dcjax.simulate.integrate import prepare, rk4_step
+from dcjax.simulation.integrate import prepare, rk4_step
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 dcjax.use_compiled_loops()

@@ -9,7 +9,7 @@ import pytest
 
 import dcjax
 from dcjax import TABLE4, TABLE8, Recording, datasets, identify, make_problem, objective, simulate
-from dcjax.simulate.kernel import objective_kernel_jit, simulate_kernel_jit
+from dcjax.simulation.kernel import objective_kernel_jit, simulate_kernel_jit
 
 
 def _population(bounds, n=12, seed=0, truth=None):
@@ -66,7 +66,7 @@ def test_identify_through_the_kernel_equals_the_scan(sd1, monkeypatch):
 def test_gpu_default_falls_back_to_the_scan_when_the_kernel_does_not_compile(monkeypatch):
     """On a GPU backend the kernel is the default only if it compiles there: here (CPU, not
     interpreted) Pallas cannot lower it, which stands in for a Triton failure on a real GPU."""
-    import dcjax.simulate.kernel as kernel
+    import dcjax.simulation.kernel as kernel
 
     monkeypatch.delenv("DCJAX_KERNEL", raising=False)
     monkeypatch.setattr(kernel.jax, "default_backend", lambda: "gpu")

@@ -12,7 +12,7 @@ from dcjax import Params, Recording, make_problem, objective, simulate
 from dcjax.io.reference import simulate_numpy
 from dcjax.models import DC
 from dcjax.models.dc import Coefficients, derivatives, vector_field
-from dcjax.simulate.integrate import rk4_step
+from dcjax.simulation.integrate import rk4_step
 
 SD1 = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
 

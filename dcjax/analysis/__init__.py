@@ -4,7 +4,7 @@ report's text and plots, and the design of the next experiment's input."""
 
 from .design import Design, design_input, evaluate_input
 from .estimate import auto_bounds, auto_range, initial_estimate
-from .uncertainty import Uncertainty, consistency, profile, uncertainty
+from .uncertainty import Uncertainty, consistency, profile
 
 __all__ = [
     "Design",
@@ -16,5 +16,4 @@ __all__ = [
     "evaluate_input",
     "initial_estimate",
     "profile",
-    "uncertainty",
 ]

@@ -34,8 +34,8 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import Model, get_model
-from ..simulate.objectives import simulate
-from ..simulate.problem import Problem, make_problem
+from ..simulation.objectives import simulate
+from ..simulation.problem import Problem, make_problem
 
 DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
 NULL_TOL = 1e-9  # an eigenvalue of the scaled information below this fraction of the largest: not identifiable

@@ -31,8 +31,8 @@ import numpy as np
 from ..io.recording import Recording
 from ..models import Model, get_model
 from ..models.parameters import Parameter, Parameters
-from ..simulate.objectives import objective
-from ..simulate.problem import make_problem
+from ..simulation.objectives import objective
+from ..simulation.problem import make_problem
 
 CUTOFFS = np.array([0.4, 0.2, 0.1, 0.05, 0.025])  # candidate cutoffs, fractions of the sampling rate
 LM_STARTS = 63  # random LM starts of a model without `regression` (besides the midpoints)

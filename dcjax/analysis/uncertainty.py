@@ -20,8 +20,8 @@ import optimistix as optx
 
 from ..models.bounds import Bounds
 from ..models.space import Space, make_space
-from ..simulate.objectives import stacked_residuals
-from ..simulate.problem import Problem
+from ..simulation.objectives import stacked_residuals
+from ..simulation.problem import Problem
 
 WELL, WEAK, NOT, FIXED = "well determined", "weakly determined", "not identifiable from this recording", "fixed (known)"
 

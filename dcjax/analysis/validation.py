@@ -5,8 +5,8 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import Model, get_model
-from ..simulate.objectives import objective
-from ..simulate.problem import make_problem
+from ..simulation.objectives import objective
+from ..simulation.problem import make_problem
 
 
 def stationary_instants(

@@ -31,7 +31,7 @@ def simulate_cmd(args) -> int:
 
 def validate_cmd(args) -> int:
     from ..analysis.report import channel_fit
-    from ..simulate.objectives import objective
+    from ..simulation.objectives import objective
 
     res = _result(args.result)
     out = Path(args.out)

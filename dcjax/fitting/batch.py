@@ -20,8 +20,8 @@ from jax.sharding import PartitionSpec
 from ..io.recording import Recording
 from ..models import get_model
 from ..models.precision import unit_precision
-from ..simulate.kernel import kernel_mode
-from ..simulate.problem import make_problem
+from ..simulation.kernel import kernel_mode
+from ..simulation.problem import make_problem
 from ..strategies import make_strategy
 from ..strategies.base import hyperparameters, run_batch, structure_key, with_hyperparameters
 from .identify import EXECUTABLES, _check_search, _fitness, _polish, _search_space, _settings, make_result

@@ -11,7 +11,7 @@ import numpy as np
 from ..io.recording import Recording
 from ..models import get_model
 from ..models.parameters import Parameters
-from ..simulate.problem import make_problem
+from ..simulation.problem import make_problem
 from .result import IdentificationResult
 
 OUTLIER_Z = 3.5  # modified z-score (Iglewicz & Hoaglin): 0.6745 |x - median| / MAD

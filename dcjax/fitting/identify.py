@@ -15,9 +15,9 @@ from ..models import Model, get_model
 from ..models.bounds import Bounds, resolve_bounds
 from ..models.precision import physical_precision, unit_precision
 from ..models.space import Space, make_space
-from ..simulate.kernel import kernel_mode
-from ..simulate.objectives import objective
-from ..simulate.problem import check_positive_int, make_problem
+from ..simulation.kernel import kernel_mode
+from ..simulation.objectives import objective
+from ..simulation.problem import check_positive_int, make_problem
 from ..strategies import Strategy, make_strategy
 from ..strategies.base import FitnessFn, hyperparameters, iteration_limit, run_batch, structure_key, with_hyperparameters
 from ..strategies.memory import MEMORY_KINDS
@@ -363,10 +363,10 @@ def make_result(recordings, model, space, out, polished, settings: dict, timing:
 
 def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
     """Fit at ND = 1; at its best parameters compare the simulation at ND = 1, 2, 4, ... with an
-    adaptive diffrax reference (`dcjax.simulate.reference_solve`) and take the first ND whose error (max
+    adaptive diffrax reference (`dcjax.simulation.reference_solve`) and take the first ND whose error (max
     over channels of max |y - y_ref| / max |y_measured|) is at most `nd_tol`; refit there, and
     repeat from that fit until the ND stays (at most 3 rounds)."""
-    from ..simulate.reference_solve import reference_simulate_jit, simulation_error
+    from ..simulation.reference_solve import reference_simulate_jit, simulation_error
 
     res = identify(recordings, nd=1, **kw)
 

@@ -8,8 +8,8 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from ..models.space import Space
-from ..simulate.objectives import stacked_residuals
-from ..simulate.problem import Problem
+from ..simulation.objectives import stacked_residuals
+from ..simulation.problem import Problem
 
 
 class PolishResult(eqx.Module):

@@ -14,7 +14,7 @@ from ..models import Model, get_model, model_spec
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space, make_space
-from ..simulate.problem import make_problem
+from ..simulation.problem import make_problem
 
 if TYPE_CHECKING:
     from ..analysis.uncertainty import Uncertainty
@@ -248,7 +248,7 @@ class IdentificationResult:
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
         """(N, S) states of the best parameters on `recording` (default: the fitted one)."""
-        from ..simulate.objectives import simulate
+        from ..simulation.objectives import simulate
 
         prob = self.problems([recording or self.recording])[0]
         return np.asarray(simulate(np.array([self.params[n] for n in self.names]), prob))

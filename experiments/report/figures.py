@@ -118,7 +118,7 @@ FIGURE_INDEX = [
     (
         "4, 17",
         "EM/RK algorithms, with ND sub-steps",
-        "no data: `dcjax.simulate.integrate` (eq. 8–23, 28–29); checked in tests/test_simulate.py",
+        "no data: `dcjax.simulation.integrate` (eq. 8–23, 28–29); checked in tests/test_simulate.py",
     ),
     ("5, 6", "the laboratory drive; preparing the measured data", "no data: `dcjax.io.emulate`, `dcjax.io.recording.trim_switch_on`"),
     ("7", "MD1–MD4 recordings", "Verdict (Table 7, Fig. 7)"),

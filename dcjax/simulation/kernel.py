@@ -4,7 +4,7 @@ operation per scan step. On a GPU that removes the per-step kernel launches that
 (issue 14); on CPU the same kernel runs in Pallas' interpret mode, which the tests compare with
 the scan. Generic over the `Model`: the model's coefficients and vector field are traced inside
 the kernel, with Euler/RK4, ND sub-steps, eq. 29 interpolation, the clamp, channel weights and
-non-uniform time steps exactly as in `dcjax.simulate.integrate`."""
+non-uniform time steps exactly as in `dcjax.simulation.integrate`."""
 
 import functools
 import os

@@ -17,7 +17,7 @@ def simulate(params, problem: Problem) -> Float[Array, "*batch n s"]:
     `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
     `Params`. Batched parameters (leading axes) are marched in one scan and the result has shape
     `(*batch, N, S)`. `jax.vmap` over `params` gives the same. A population (P, n) goes through
-    the Pallas kernel where `dcjax.simulate.kernel.kernel_mode()` says so (on a GPU)."""
+    the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU)."""
     mode = kernel_mode()
     if mode is not None:
         x = problem.model.as_array(params)
@@ -49,7 +49,7 @@ def objective(params, problem: Problem) -> Float[Array, "*batch"]:
     over all N samples of the recording (k = 0 is the initial state). The sum is accumulated
     inside the time scan, so no trajectory is stored. A non-finite simulation (La or J at 0,
     overflow) gives +inf, never NaN. Batched `params` give one OF per member. A population (P, n)
-    goes through the Pallas kernel where `dcjax.simulate.kernel.kernel_mode()` says so (on a GPU)."""
+    goes through the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU)."""
     mode = kernel_mode()
     if mode is not None:
         x = problem.model.as_array(params)

@@ -11,7 +11,7 @@ import pytest
 
 import dcjax
 from dcjax import cli, datasets
-from dcjax.analysis.design import design_input, evaluate_input, information, null_parameters, template_problem
+from dcjax.analysis.design import design_input, evaluate_input, information, null_parameters, predicted_stderr, template_problem
 from dcjax.io.reference import simulate_numpy
 
 SD1 = datasets.true_params("SD1")
@@ -83,6 +83,10 @@ def test_a_parameter_the_structure_hides_is_named():
     assert set(d.unidentifiable) == {"a", "b"}
     F = np.eye(2)
     assert null_parameters(F, ("p", "q")) == []
+    # ill-conditioned is not null: a 1e-11 eigenvalue is a large but finite error (a full step on a
+    # motor with a slow mechanical time constant); only a numerically zero one is a null direction
+    np.testing.assert_allclose(predicted_stderr(np.diag([1.0, 1e-11]), np.ones(2)), [1.0, 1e-11**-0.5])
+    assert predicted_stderr(np.diag([1.0, 1e-14]), np.ones(2)).tolist() == [1.0, np.inf]
 
 
 @pytest.mark.parametrize(

@@ -38,7 +38,7 @@ from ..simulation.objectives import simulate
 from ..simulation.problem import Problem, make_problem
 
 DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
-NULL_TOL = 1e-9  # an eigenvalue of the scaled information below this fraction of the largest: not identifiable
+NULL_TOL = 1e-12  # an eigenvalue of the scaled information below this fraction of the largest: numerically zero, not identifiable
 
 
 @dataclasses.dataclass

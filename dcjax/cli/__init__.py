@@ -1,5 +1,6 @@
 """`dcjax fit | simulate | validate | report | design`: identification and its checks from a shell."""
 
+import os
 import sys
 import warnings
 
@@ -27,6 +28,9 @@ def main(argv: list[str] | None = None) -> int:
         warnings.showwarning = _one_line_warning  # inside this block only (catch_warnings restores it)
         try:
             return COMMANDS[args.command](args)
+        except BrokenPipeError:  # the reader went away (dcjax report RESULT.json | head): not an error
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes stdout
+            return 0
         except (ValueError, OSError) as e:
             print(f"dcjax: error: {e}", file=sys.stderr)
             return 2

@@ -147,3 +147,22 @@ def test_interrupted_reproduction_resumes_to_the_same_report(tmp_path, sig, unin
     assert "not one uninterrupted run" in text  # the report says the store took two invocations
     lines = (tmp_path / "store.jsonl").read_text().splitlines()
     assert sum(1 for x in lines if x.startswith("{") and "of" in json.loads(x)) == 2
+
+
+def test_time_verdicts_cannot_flip_within_the_measured_spread():
+    """Two runs whose time ratios differ by less than time_spread^2 (the run-to-run spread measured
+    here) never give one cell opposite sides, nor a verdict its opposite: at worst "not decided"."""
+    from experiments.report.thresholds import T, time_side, time_verdict
+
+    rng = np.random.default_rng(0)
+    spread = 2 * np.log(T["time_spread"])
+    for _ in range(500):
+        r = np.exp(rng.uniform(-1.2, 1.2, 16))
+        r2 = r * np.exp(rng.uniform(-spread, spread, 16))
+        a, b = ([time_side(x, 1 / 1.5, 1.5) for x in rs] for rs in (r, r2))
+        assert all({x, y} != {"in", "out"} for x, y in zip(a, b))
+        v, w = time_verdict(a), time_verdict(b)
+        assert v == w or "not decided" in v or "not decided" in w, (v, w)
+    assert time_verdict(["in", "in"]) == "reproduced" and time_verdict(["out", "out"]) == "differs"
+    assert time_verdict(["in", "near"]).startswith("not decided")  # "reproduced" if near is in, "qualitatively" if out
+    assert time_verdict(["in", "in", "in", "near", "out"]) == "reproduced qualitatively"  # 3/5 or 4/5 in: the same word

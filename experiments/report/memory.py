@@ -14,7 +14,7 @@ from .common import (
     table,
     verdict,
 )
-from .thresholds import PAPER_DUP_RANGE, T
+from .thresholds import PAPER_DUP_RANGE, T, near_note, time_side, time_verdict
 
 
 def section_memory(R: Results, L: list[str], figures: Path):
@@ -34,7 +34,7 @@ def section_memory(R: Results, L: list[str], figures: Path):
         "runs, since both batches hold the same runs).",
         "",
     ]
-    ranges, fig_rows, time_by = {}, [], {}
+    ranges, fig_rows, fig_sides, time_by = {}, [], [], {}
     for d in mds:
         tab = MD_TABLES[d][4]
         P = PAPER[f"table{tab}"]["rows"]
@@ -55,6 +55,9 @@ def section_memory(R: Results, L: list[str], figures: Path):
                 trow.append(f"{pct:.0f} / {' & '.join(str(P[q]['time_pct'][j]) for q in prow)}")
                 t_fe = ref["run_s"] / float(ref["fes"].sum())
                 fig_rows.append((d, v, mem, t_fe, (r["run_s"] - t_fe * float(r["fes"].sum())) / float(cand.sum())))
+                # handling < OF time per FE  <=>  run_s / ref run_s < (candidates + FEs) / ref FEs
+                bound = (float(cand.sum()) + float(r["fes"].sum())) / float(ref["fes"].sum())
+                fig_sides.append(time_side(r["run_s"] / ref["run_s"], 0.0, bound))
             dup_rows.append(drow)
             time_rows.append(trow)
         L += [f"**Table {tab}: {d}, Dupl. (%)** (dcjax / paper; LTMA: paper S1 & S2)", ""] + table(
@@ -93,7 +96,7 @@ def section_memory(R: Results, L: list[str], figures: Path):
         ]
     _memory_time_verdicts(L, mds, time_by)
     if fig_rows:
-        _fig25(R, L, p, figures, fig_rows)
+        _fig25(R, L, p, figures, fig_rows, fig_sides)
 
 
 def _memory_time_verdicts(L: list[str], mds: list[str], time_by: dict) -> None:
@@ -115,16 +118,17 @@ def _memory_time_verdicts(L: list[str], mds: list[str], time_by: dict) -> None:
             continue
         p_lo = min(min(PAPER[f"table{MD_TABLES[d][4]}"]["rows"][q]["time_pct"]) for d in mds for q in ("ltma-s1", "ltma-s2"))
         p_hi = max(max(PAPER[f"table{MD_TABLES[d][4]}"]["rows"][q]["time_pct"]) for d in mds for q in ("ltma-s1", "ltma-s2"))
-        k = sum(p_lo / T["time_factor"] <= t <= p_hi * T["time_factor"] for t in by.values())
+        sides = [time_side(t, p_lo / T["time_factor"], p_hi * T["time_factor"]) for t in by.values()]
         lines += [
-            f"**Verdict (Tables 30–33, {MEMORY_LABEL[mem]} time): {verdict(k, len(by))}** — {min(by.values()):.0f}–"
-            f"{max(by.values()):.0f} % (paper S1/S2 {p_lo}–{p_hi} %; inside that range widened by time_factor in {k}/{len(by)} cells).",
+            f"**Verdict (Tables 30–33, {MEMORY_LABEL[mem]} time): {time_verdict(sides)}** — {min(by.values()):.0f}–"
+            f"{max(by.values()):.0f} % (paper S1/S2 {p_lo}–{p_hi} %; inside that range widened by time_factor in "
+            f"{sides.count('in')}/{len(by)} cells{near_note(sides)}).",
             "",
         ]
     L += lines + ["<!-- /times -->", ""]
 
 
-def _fig25(R: Results, L: list[str], p: dict, figures: Path, fig_rows: list) -> None:
+def _fig25(R: Results, L: list[str], p: dict, figures: Path, fig_rows: list, sides: list[str]) -> None:
     """Fig. 25 analogue: OF time per FE and memory handling per candidate, derived from run times."""
     import matplotlib.pyplot as plt
 
@@ -142,8 +146,7 @@ def _fig25(R: Results, L: list[str], p: dict, figures: Path, fig_rows: list) -> 
     fig.savefig(figures / "fig25_memory_times.png", dpi=110)
     plt.close(fig)
     rows = [[d, v, MEMORY_LABEL[m], f"{1e6 * t:.2f}", f"{1e6 * h:.2f}"] for d, v, m, t, h in fig_rows]
-    cheap = {m: sum(h < t for d, v, mm, t, h in fig_rows if mm == m) for m in p["memory"]}
-    tot = {m: sum(1 for r in fig_rows if r[2] == m) for m in p["memory"]}
+    by_memory = {m: [s for r, s in zip(fig_rows, sides) if r[2] == m] for m in p["memory"]}
     L += [
         "<!-- times -->",
         "**Fig. 25 analogue** (µs; OF time per FE = memory-free run time / FEs; handling = (run time with memory − FEs × "
@@ -153,7 +156,11 @@ def _fig25(R: Results, L: list[str], p: dict, figures: Path, fig_rows: list) -> 
     L += table(["data", "variant", "memory", "OF per FE", "handling per candidate"], rows)
     L += [
         "**Verdict (Fig. 25): "
-        + "; ".join(f"{MEMORY_LABEL[m]} handling below the OF time per FE in {cheap[m]}/{tot[m]} cells" for m in p["memory"])
+        + "; ".join(
+            f"{MEMORY_LABEL[m]} handling below the OF time per FE in {s.count('in')}/{len(s)} cells, above in {s.count('out')}"
+            + (f", too near to tell in {s.count('near')}" if s.count("near") else "")
+            for m, s in by_memory.items()
+        )
         + "** (paper: STMA's handling is small against an OF evaluation, LTMA-S1's is not).",
         "<!-- /times -->",
         "",

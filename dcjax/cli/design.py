@@ -22,7 +22,10 @@ def design_cmd(args) -> int:
         if v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v}")
     t = np.arange(int(round(args.duration / args.dt)) + 1) * args.dt
-    given = {f"baseline {Path(f).stem}": _baseline_input(f, t, m.inputs[0] if m.inputs else "u") for f in args.baseline}
+    given = {}
+    for k, f in enumerate(args.baseline):  # one entry per file, also where two files share a name
+        label = f"baseline {Path(f).stem}"
+        given[label if label not in given else f"{label} ({k + 1})"] = _baseline_input(f, t, m.inputs[0] if m.inputs else "u")
     design = design_input(
         m, res.params, duration=args.duration, dt=args.dt, u_range=(args.umin, args.umax), hold=args.hold, i_limit=limit,
         criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,

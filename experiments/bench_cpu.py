@@ -65,12 +65,12 @@ def _padding(lanes: int) -> dict:
     dcjax.use_host_devices()
     dcjax.use_compiled_loops()
     import dcjax.simulation.objectives as objectives
-    from dcjax import datasets, identify
+    from dcjax import datasets, fit
 
     objectives.LANES = lanes
     rec = datasets.load("SD1")
-    one = [identify(rec, method="de-rand-1-exp", runs=1, seed=s).timing["run_s"] for s in range(3)]
-    fifty = [identify(rec, method="de-rand-1-exp", runs=50, seed=s).timing["run_s"] for s in range(3)]
+    one = [fit(rec, params="table4", method="de-rand-1-exp", runs=1, seed=s).timing["run_s"] for s in range(3)]
+    fifty = [fit(rec, params="table4", method="de-rand-1-exp", runs=50, seed=s).timing["run_s"] for s in range(3)]
     return {"lanes": lanes, "one": one, "fifty": fifty}
 
 

@@ -20,7 +20,7 @@ import dcjax
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
-from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem  # noqa: E402
+from dcjax import DC, TABLE4, Recording, datasets, fit, make_problem  # noqa: E402
 from dcjax.fitting.fleet import identify_fleet  # noqa: E402
 from dcjax.io.reference import simulate_numpy  # noqa: E402
 from dcjax.simulation.kernel import objective_kernel_jit  # noqa: E402
@@ -51,10 +51,10 @@ def main():
     sd1 = datasets.load("SD1")
     print("| work | compile s | run s | result |\n|---|---|---|---|")
     for runs in args.runs:
-        r = identify(sd1, runs=runs, budget=args.budget, seed=0)
+        r = fit(sd1, params="table4", runs=runs, budget=args.budget, seed=0)
         ok = int(np.sum(r.run_of <= 1e-15))
         print(f"| SD1, {runs} runs | {r.timing['compile_s']:.2f} | {r.timing['run_s']:.3f} | {ok}/{runs} at OF <= 1e-15 |")
-    truth = np.array([datasets.true_params("SD1")[p] for p in PARAM_NAMES])
+    truth = np.array([datasets.true_params("SD1")[p] for p in DC.names])
     for motors in args.motors:
         x = truth * np.random.default_rng(0).uniform(0.6, 1.4, (motors, 7))
         t = np.arange(501) * 1e-4

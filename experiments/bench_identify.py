@@ -48,9 +48,9 @@ def _single(method: str, repeats: int = 3) -> dict:
 def _batched(method: str, runs: int = 50) -> dict:
     import numpy as np
 
-    from dcjax import datasets, identify
+    from dcjax import datasets, fit
 
-    r = identify(datasets.load("SD1"), method=method, runs=runs, seed=0)
+    r = fit(datasets.load("SD1"), params="table4", method=method, runs=runs, seed=0)
     return {
         "method": method,
         "runs": runs,

@@ -12,7 +12,7 @@ import dcjax
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
-from dcjax import datasets, identify  # noqa: E402
+from dcjax import LTMA, RK4, STMA, IndexedLTMA, datasets, fit  # noqa: E402
 
 
 def main():
@@ -23,10 +23,12 @@ def main():
     rec = datasets.load("MD1")
     base = None
     for kind in args.kinds:
-        mem = None if kind == "none" else kind
-        kw = dict(runs=args.runs, nd=5, bounds="table8", i_limit=11.44, memory=mem)
-        identify(rec, **kw)
-        r = identify(rec, **kw)
+        mem = {"none": None, "stma": STMA(), "ltma-s1": LTMA(order="oldest"), "ltma-s2": LTMA(order="newest"), "ltma-hash": IndexedLTMA()}[
+            kind
+        ]
+        kw = dict(params="table8", integrator=RK4(substeps=5), runs=args.runs, memory=mem)
+        fit(rec.replace(limit=11.44), **kw)  # compiles
+        r = fit(rec.replace(limit=11.44), **kw)
         base = base or r.timing["run_s"]
         dup = "-" if r.duplicates is None else f"{r.duplicates['percent']:.1f} %"
         print(

@@ -18,6 +18,7 @@ dcjax.use_compiled_loops()
 def main():
     label = sys.argv[1] if len(sys.argv) > 1 else dcjax.__version__
     rec = datasets.load("SD1")
+    # `identify`, not `fit`: the same script times the 0.1 commit (3056edf), which has no `fit`.
     dcjax.identify(rec, runs=1, seed=99)  # compiles
     t = [dcjax.identify(rec, runs=1, seed=s).timing["run_s"] for s in range(9)]
     print(f"{label}: one SD1 DE run (140,000 FEs, RK4): min {min(t):.4f} s, median {statistics.median(t):.4f} s")

@@ -13,7 +13,7 @@ import dcjax
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
-from dcjax import datasets, identify  # noqa: E402
+from dcjax import datasets, fit  # noqa: E402
 
 dcjax.identify_module = __import__("importlib").import_module("dcjax.fitting.identify")
 
@@ -22,10 +22,10 @@ def main(repeats: int = 6, runs: int = 50):
     rec = datasets.load("SD1")
     plain, chunked = [], []
     for mode in (None, lambda f: None):  # compile both paths first
-        identify(rec, runs=runs, seed=0, progress=mode)
+        fit(rec, params="table4", runs=runs, seed=0, progress=mode)
     for r in range(repeats):
-        a = identify(rec, runs=runs, seed=r)
-        b = identify(rec, runs=runs, seed=r, progress=lambda f: None)
+        a = fit(rec, params="table4", runs=runs, seed=r)
+        b = fit(rec, params="table4", runs=runs, seed=r, progress=lambda f: None)
         assert np.array_equal(a.run_of, b.run_of), "progress changed the result"
         plain.append(a.timing["run_s"])
         chunked.append(b.timing["run_s"])

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from dcjax import PARAM_NAMES, datasets, identify, load_csv
+import dcjax
+from dcjax import datasets, load_csv
 from dcjax.io.datasets import DATA_DIR
 from dcjax.io.emulate import LAB_EFFECTS, Effects, emulate, md_settings
 
@@ -117,28 +118,37 @@ def method_for(cell: Cell):
     return DERand1Exp(**kw)
 
 
+MEMORIES = {
+    "stma": dcjax.STMA(),
+    "ltma-s1": dcjax.LTMA(order="oldest"),
+    "ltma-s2": dcjax.LTMA(order="newest"),
+    "ltma-hash": dcjax.IndexedLTMA(),
+}
+
+
 def run_cell(cell: Cell) -> dict:
-    """Run the cell; its store line."""
-    recs = recordings(cell)
-    r = identify(
+    """Run the cell (`dcjax.fit`); its store line."""
+    recs = [dcjax.with_weights(r, {"i_a": cell.w1, "omega": cell.w2}) for r in recordings(cell)]
+    params = dcjax.DC().parameters(recs[0].metadata.get("bounds", "table4"))
+    for name, value in cell.fixed_params.items():
+        params[name].set(value=value, vary=False)
+    integrator = dcjax.Euler(substeps=cell.nd) if cell.integrator == "euler" else dcjax.RK4(substeps=cell.nd)
+    r = dcjax.fit(
         recs if len(recs) > 1 else recs[0],
+        params=params,
         method=method_for(cell),
-        integrator=cell.integrator,
-        nd=cell.nd,
-        weights=(cell.w1, cell.w2),
-        bounds=recs[0].metadata.get("bounds", "table4"),
+        integrator=integrator,
         runs=cell.runs,
         budget=cell.budget,
-        seed=cell.seed,
-        memory=cell.memory,
         generations=cell.generations,
-        fixed=cell.fixed_params or None,
+        seed=cell.seed,
+        memory=None if cell.memory is None else MEMORIES[cell.memory],
         polish=cell.polish,
     )
     line = {
         "key": cell.key,
         "cell": dataclasses.asdict(cell),
-        "names": list(PARAM_NAMES),
+        "names": list(r.names),
         "of": [float(x) for x in r.run_of],
         "params": [[float(x) for x in row] for row in r.run_params],
         "fes": [int(x) for x in r.fes],
@@ -150,7 +160,7 @@ def run_cell(cell: Cell) -> dict:
     }
     if cell.polish:
         u = r.uncertainty().uncertainties
-        line["uncertainty"] = {n: {"value": float(u.params[n]), "se": float(u.se[n]), "verdict": u.verdict[n]} for n in PARAM_NAMES}
+        line["uncertainty"] = {n: {"value": float(u.params[n]), "se": float(u.se[n]), "verdict": u.verdict[n]} for n in r.names}
     return line
 
 

@@ -10,7 +10,7 @@ import argparse
 import numpy as np
 
 import dcjax
-from dcjax import PARAM_NAMES, Recording, datasets
+from dcjax import DC, Recording, datasets
 from dcjax.fitting.fleet import identify_fleet
 from dcjax.io.reference import simulate_numpy
 
@@ -25,7 +25,7 @@ def main():
     ap.add_argument("--budget", type=int, default=140_000)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
-    truth = np.array([datasets.true_params("SD1")[p] for p in PARAM_NAMES])
+    truth = np.array([datasets.true_params("SD1")[p] for p in DC.names])
     x = truth * np.random.default_rng(args.seed).uniform(0.6, 1.4, (args.motors, 7))
     t = np.arange(501) * 1e-4
     u = np.full_like(t, 220.0)

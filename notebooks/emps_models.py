@@ -29,7 +29,10 @@ class EMPSOpenLoop(dcjax.Model):
     inputs: ClassVar = ("tau",)
     measured: ClassVar = ("q",)
     derivative_of: ClassVar = {"v": "q"}
-    bounds: ClassVar = {"default": {"M": (0.0, 500.0), "Fv": (0.0, 1000.0), "Fc": (0.0, 100.0), "offset": (-50.0, 50.0)}}
+
+    def presets(self):
+        ranges = {"M": (0.0, 500.0), "Fv": (0.0, 1000.0), "Fc": (0.0, 100.0), "offset": (-50.0, 50.0)}
+        return {"default": dcjax.Parameters([dcjax.Parameter(n, min=lo, max=hi) for n, (lo, hi) in ranges.items()])}
 
     def coefficients(self, p):
         inv_m = 1.0 / p["M"]

@@ -419,7 +419,7 @@ def scales_from_fit(result, fraction: float = 0.01) -> dict[str, float]:
     for n in result.at_bound():
         k = result.names.index(n)
         width = float(b.upper[k] - b.lower[k])
-        if abs(result.params[n]) <= 1e-9 * width:
+        if abs(result.best_values[n]) <= 1e-9 * width:
             out[n] = fraction * width
     return out
 

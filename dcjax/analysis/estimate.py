@@ -307,7 +307,7 @@ def initial_estimate(
         raise ValueError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
     if border is not None and (not isinstance(border, (int, np.integer)) or isinstance(border, bool) or border < 0):
         raise ValueError(f"border must be a non-negative integer, got {border!r}")
-    base = start if start is not None else m.parameters() if m.bounds else Parameters([Parameter(n) for n in m.names])
+    base = start if start is not None else m.parameters()
     nonneg = np.array([math.isfinite(p.min) and p.min >= 0 for p in base.values()])
 
     linear = type(m).regression is not Model.regression
@@ -350,11 +350,9 @@ def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | 
         try:
             ests.append(initial_estimate(r, m))
         except Exception as e:  # a state neither measured nor a derivative, a singular regression: the preset, said once
-            if not m.bounds:
+            if not m.preset_names:
                 raise ValueError(f"bounds auto: {e}") from None
-            warnings.warn(
-                f"bounds auto: {e}; using the model's preset {next(iter(m.bounds))} for {r.name or 'this recording'}", stacklevel=2
-            )
+            warnings.warn(f"bounds auto: {e}; using the model's preset {m.preset_names[0]} for {r.name or 'this recording'}", stacklevel=2)
             ests.append(m.parameters())
     lo = np.min([e.lower for e in ests], axis=0)
     hi = np.max([e.upper for e in ests], axis=0)

@@ -55,7 +55,7 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
     at_bound = set(result.at_bound())
     width = max(len(n) for n in m.names)
     for n in m.names:
-        v = result.params[n]
+        v = result.best_values[n]
         unit = m.units.get(n, "")
         text = f"    {n + ':':<{width + 1}} {v: .10g}"
         if n in result.fixed:

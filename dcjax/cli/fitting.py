@@ -1,5 +1,6 @@
 """`dcjax fit`: one fit of one or several recordings (a joint fit), or `--each` file on its own."""
 
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -57,7 +58,7 @@ def _bounds(args, model, rec):
             raise ValueError("give either --bounds or --lower/--upper, not both")
         bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
     else:
-        preset = args.bounds or (rec.metadata.get("bounds") if rec.metadata.get("bounds") in model.bounds else "auto")
+        preset = args.bounds or (rec.metadata.get("bounds") if rec.metadata.get("bounds") in model.preset_names else "auto")
         if preset.lower() == "auto":
             from ..analysis.estimate import auto_bounds
 
@@ -67,50 +68,74 @@ def _bounds(args, model, rec):
     return resolve_bounds(model, bounds, _named_ranges(args.bound, "--bound")), start
 
 
+MEMORIES = {"stma": ("STMA", {}), "ltma-s1": ("LTMA", {"order": "oldest"}), "ltma-s2": ("LTMA", {"order": "newest"}),
+            "ltma-hash": ("IndexedLTMA", {})}  # fmt: skip
+
+
 def _options(args, model) -> dict:
-    """The identify options every file of this command shares (bounds are per file)."""
-    precision = None
-    if args.precision is not None:
-        precision = (
-            _named_floats(args.precision, "--precision")
-            if "=" in args.precision
-            else _floats(args.precision, "--precision", model.n_params)
-        )
-    return dict(
-        method=args.method,
-        integrator=args.integrator,
-        nd=_nd(args.nd),
-        weights=None if args.weights is None else tuple(_floats(args.weights, "--weights", len(model.outputs))),
-        runs=args.runs,
-        budget=args.budget,
-        seed=args.seed,
-        polish=args.polish,
-        i_limit=args.i_limit,
-        memory=args.memory,
-        precision=precision,
-        generations=args.generations,
-        model=model,
-        fixed=_named_floats(args.fix, "--fix") or None,
-    )
+    """The `dcjax.fit` options every file of this command shares (the parameters are per file)."""
+    from ..fitting import fit as typed
+
+    nd = _nd(args.nd)
+    step = typed.Euler if args.integrator == "euler" else typed.RK4
+    integrator = typed.AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
+    memory = None
+    if args.memory is not None:
+        cls, kw = MEMORIES[args.memory]
+        memory = getattr(typed, cls)(**kw)
+    return dict(method=args.method, integrator=integrator, runs=args.runs, budget=args.budget, generations=args.generations,
+                seed=args.seed, memory=memory, polish=args.polish)  # fmt: skip
 
 
-def _file_search(args, model, options, rec):
-    """A file's bounds (--bounds/--lower/--upper/--bound, default its sidecar's preset or auto) and
-    start values (--x0, else the auto estimate's)."""
+def _precision(args, model) -> dict[str, float]:
+    if args.precision is None:
+        return {}
+    if "=" in args.precision:
+        given = _named_floats(args.precision, "--precision")
+        model.check_names(given)
+        return given
+    return dict(zip(model.names, _floats(args.precision, "--precision", model.n_params)))
+
+
+def _prepared(rec, args, model):
+    """The recording as the flags ask: --i-limit (also on an embedded data set), --weights."""
+    from ..fitting.fit import with_weights
+
+    if args.i_limit is not None and rec.limit != args.i_limit:
+        rec = rec.replace(limit=args.i_limit)
+    if args.weights is not None:
+        rec = with_weights(rec, dict(zip(model.outputs, _floats(args.weights, "--weights", len(model.outputs)))))
+    return rec
+
+
+def _file_params(args, model, rec):
+    """A file's `Parameters`: ranges from --bounds/--lower/--upper/--bound (default its sidecar's
+    preset, else auto), --fix, start values from --x0 (else the auto estimate's, where inside
+    the ranges) and --precision."""
+    from ..models.parameters import Parameter, Parameters
+
     bounds, start = _bounds(args, model, rec)
-    x0 = _named_floats(args.x0, "--x0") or None
-    if x0 is None and start:
-        lo, hi = bounds.lower, bounds.upper
-        free = {n: v for n, v in start.items() if n not in (options["fixed"] or {})}
-        x0 = {n: v for n, v in free.items() if lo[model.names.index(n)] <= v <= hi[model.names.index(n)]} or None
-    return bounds, x0
+    fixed = _named_floats(args.fix, "--fix")
+    model.check_names(fixed, "fixed parameter")
+    x0 = _named_floats(args.x0, "--x0")
+    model.check_names(x0, "start value")
+    lo, hi = bounds.lower, bounds.upper
+    if not x0:
+        x0 = {n: v for n, v in start.items() if lo[model.names.index(n)] <= v <= hi[model.names.index(n)]}
+    prec = _precision(args, model)
+    out = []
+    for k, n in enumerate(model.names):
+        value = fixed.get(n, x0.get(n))
+        out.append(Parameter(n, value=value, min=float(lo[k]), max=float(hi[k]), vary=n not in fixed,
+                             unit=model.units.get(n, ""), precision=prec.get(n)))  # fmt: skip
+    return Parameters(out)
 
 
 def _fit_one(recs, args, model, options, progress):
-    from ..fitting.identify import identify
+    from ..fitting.fit import fit
 
-    bounds, x0 = _file_search(args, model, options, recs[0])
-    result = identify(recs, bounds=bounds, x0=x0, progress=progress, **options)
+    recs = [_prepared(r, args, model) for r in recs]
+    result = fit(recs, model, _file_params(args, model, recs[0]), progress=progress, **options)
     if args.uncertainty:
         result = result.uncertainty()
     return result
@@ -123,7 +148,7 @@ def bound_hints(result) -> list[str]:
     out = []
     for n in result.at_bound():
         k = result.names.index(n)
-        v = result.params[n]
+        v = result.best_values[n]
         if abs(v - lo[k]) <= abs(v - hi[k]):
             if lo[k] == 0:
                 out.append(
@@ -161,7 +186,7 @@ def _print_fit(result, recs, args, model, out):
     print(header)
     at_bound = set(result.at_bound())
     for k, name in enumerate(model.names):
-        v = result.params[name]
+        v = result.best_values[name]
         line = f"{name:>6} {model.units.get(name, ''):>7} {v:>22.15g} {b['lower'][k]:>10.3g} {b['upper'][k]:>10.3g}"
         if truth:
             t = truth[name]
@@ -210,27 +235,24 @@ def fit(args) -> int:
 
 
 def fit_each_cmd(args, model, options) -> int:
-    """`dcjax fit --each`: one fit per file, the files of one length in one compiled call; a file
-    that fails to load, validate or fit is reported and the others are fitted."""
-    from ..fitting.each import FailedFit, _check, summary_rows, write_summary
+    """`dcjax fit --each`: one fit per file (`dcjax.fitting.fit_each`: the files of one length in
+    one compiled call); a file that fails to load, validate or fit is reported and the others are
+    fitted."""
+    from ..fitting.each import FailedFit, fit_each, summary_rows, write_summary
 
     out = Path(args.out)
     results: list = [None] * len(args.data)
-    ready = []  # (index, recording, bounds, start values)
+    ready = []  # (index, recording, parameters)
     for k, data in enumerate(args.data):
         label = Path(data).stem if Path(data).exists() else data
         try:
-            rec = _load(data, args, model)
-            _check(rec, model, options)
-            bounds, x0 = _file_search(args, model, options, rec)
-            ready.append((k, rec, bounds, x0))
+            rec = _prepared(_load(data, args, model), args, model)
+            ready.append((k, rec, _file_params(args, model, rec)))
         except Exception as e:  # one broken file fails alone, whatever broke
             results[k] = FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data)
-    recs = {k: rec for k, rec, _, _ in ready}
-    for k, res in _fit_ready(ready, model, options).items():
-        if isinstance(res, Exception):
-            res = FailedFit(name=recs[k].name, error=(str(res).splitlines() or [type(res).__name__])[0], source=args.data[k])
-        results[k] = res
+    fitted = fit_each([r for _, r, _ in ready], model, [p for *_, p in ready], **options) if ready else []
+    for (k, *_), res in zip(ready, fitted):
+        results[k] = res if not isinstance(res, FailedFit) else dataclasses.replace(res, source=args.data[k])
     names: dict[str, int] = {}
     for result in results:
         if isinstance(result, FailedFit):
@@ -251,26 +273,3 @@ def fit_each_cmd(args, model, options) -> int:
     flagged = [r["name"] for r in rows if r.get("outlier")]
     print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {csv_path} and {png}")
     return 0 if ok == len(rows) else 1 if ok else 2
-
-
-def _fit_ready(ready, model, options) -> dict:
-    """Index -> result (or the exception) of each validated file: in one `identify_each` call
-    where the settings allow, else (and where that call fails) one `identify` each."""
-    from ..fitting.batch import identify_each
-    from ..fitting.identify import identify
-
-    if not ready:
-        return {}
-    if options["nd"] != "auto":
-        try:
-            res = identify_each([r for _, r, _, _ in ready], bounds=[b for *_, b, _ in ready], x0=[x for *_, x in ready], **options)
-            return {k: r for (k, *_), r in zip(ready, res)}
-        except Exception:  # a file that breaks the batch: fit them one by one, so it fails alone
-            pass
-    out = {}
-    for k, rec, bounds, x0 in ready:
-        try:
-            out[k] = identify([rec], bounds=bounds, x0=x0, **options)
-        except Exception as e:
-            out[k] = e
-    return out

@@ -37,7 +37,7 @@ def validate_cmd(args) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     recs = [_load(d, args, res.model) for d in args.data]
-    x = [res.params[n] for n in res.names]
+    x = [res.best_values[n] for n in res.names]
     print(f"{'recording':>12} {'OF':>12}  " + "  ".join(f"{'fit % ' + c:>14}" for c in res.model.outputs))
     rows = []
     for rec in recs:

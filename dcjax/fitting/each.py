@@ -46,14 +46,20 @@ def fit_each(
 
     `items`: recordings, or paths loaded with `load` (default `dcjax.load_recording` with the
     model). A recording that fails to load, validate or fit gets a `FailedFit` with its one-line
-    error and every other one is fitted. `params=None` takes each recording's sidecar preset,
-    else `"auto"`. Recordings of one length (and channels, limit, weights) are fitted in one
+    error and every other one is fitted. `params`: as `fit` takes it, for every recording, or a
+    list with one entry per item; None takes each recording's sidecar preset, else `"auto"`. Recordings of one length (and channels, limit, weights) are fitted in one
     compiled call (`dcjax.fitting.batch.identify_each`: the same results as one fit each); with
     `AutoSubsteps` or `progress` they are fitted one after another."""
     from ..io.loading import load_recording
 
     m = get_model(model)
     loader = load or (lambda p: load_recording(p, model=m))
+    if isinstance(params, (list, tuple)):
+        if len(params) != len(items):
+            raise ValueError(f"params: one entry per recording ({len(items)}), got {len(params)}")
+        each = list(params)
+    else:
+        each = [params] * len(items)
     out: list = [None] * len(items)
     valid: list[tuple[int, Recording]] = []
     for k, item in enumerate(items):
@@ -64,11 +70,11 @@ def fit_each(
             valid.append((k, rec))
         except Exception as e:  # one broken recording fails alone, whatever broke
             out[k] = _failed(name, e, None if isinstance(item, Recording) else str(item))
-    batched = _fit_batched(valid, m, params, method, options)
+    batched = _fit_batched(valid, m, each, method, options)
     for k, rec in valid:
         out[k] = batched.get(k) if batched is not None else None
         if out[k] is None:
-            out[k] = _fit_alone(rec, m, params, method, options, None if isinstance(items[k], Recording) else str(items[k]))
+            out[k] = _fit_alone(rec, m, each[k], method, options, None if isinstance(items[k], Recording) else str(items[k]))
     return out
 
 
@@ -85,7 +91,7 @@ def _fit_alone(rec, m, params, method, options, source):
         return _failed(rec.name, e, source)
 
 
-def _fit_batched(valid, m, params, method, options) -> dict | None:
+def _fit_batched(valid, m, each, method, options) -> dict | None:
     """Index -> result of the recordings fitted together (`identify_each`), or None where the
     options ask for one fit each (AutoSubsteps, progress, differing channel weights) or the
     batch failed (then each recording is fitted alone, and fails alone)."""
@@ -94,18 +100,20 @@ def _fit_batched(valid, m, params, method, options) -> dict | None:
 
     if not valid or isinstance(options.get("integrator"), AutoSubsteps) or options.get("progress"):
         return None
-    opts = {k: options[k] for k in ("integrator", "memory", "polish", "runs", "budget", "seed") if k in options}
+    opts = {k: options[k] for k in ("integrator", "memory", "polish", "runs", "budget", "seed", "generations") if k in options}
     unknown = set(options) - set(opts) - {"progress"}
     if unknown:
         raise ValueError(f"fit_each: unknown option(s) {sorted(unknown)}")
     try:
         engine = engine_options(method, opts.get("integrator"), opts.get("memory"), opts.get("polish", False),
-                                opts.get("runs", 50), opts.get("budget", 140_000), opts.get("seed", 0))  # fmt: skip
+                                opts.get("runs", 50), opts.get("budget", 140_000), opts.get("seed", 0), opts.get("generations"))  # fmt: skip
         weights = {channel_weights([r], m) for _, r in valid}
         if len(weights) != 1:
             return None
-        search = [search_options(params.copy() if isinstance(params, Parameters) else params, [r], m) for _, r in valid]
+        search = [search_options(each[k].copy() if isinstance(each[k], Parameters) else each[k], [r], m) for k, r in valid]
         shared = {k: search[0].get(k) for k in ("fixed", "precision")}
+        if any(s.get(k) != shared[k] for s in search for k in shared):
+            return None  # other fixed parameters or precisions: one fit each
         results = identify_each(
             [r for _, r in valid], bounds=[s["bounds"] for s in search], x0=[s.get("x0") for s in search],
             weights=weights.pop(), model=m, **shared, **engine,
@@ -146,7 +154,7 @@ def summary_rows(results: Sequence[IdentificationResult | FailedFit], model=None
             rows.append({"name": r.name, "file": r.source or "", "status": "failed", "error": r.error})
             continue
         row = {"name": r.recording.name if r.recording else "", "file": _source(r), "status": "ok", "error": "", "of": r.of}
-        row.update({n: r.params[n] for n in m.names})
+        row.update({n: r.best_values[n] for n in m.names})
         for rec in r.recordings[:1]:
             row.update({f"fit_{c}": v for c, v in channel_fit(r, rec).items()})
         row["at_bound"] = " ".join(r.at_bound())

@@ -117,20 +117,21 @@ def search_options(params, recordings: list[Recording], model: Model) -> dict:
     if params is None:
         named = {r.metadata.get("bounds") for r in recordings}
         preset = named.pop() if len(named) == 1 else None
-        params = preset if preset in model.bounds else "auto"
+        params = preset if preset in model.preset_names else "auto"
     if isinstance(params, str):
         return {"bounds": params}
     if not isinstance(params, Parameters):
         raise ValueError(
-            f"params must be None, 'auto', a preset name {sorted(model.bounds)} or dcjax.Parameters, got {type(params).__name__}"
+            f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
         )
     params.check(model.names, model.name)
     fixed = params.fixed
     lo, hi = params.lower.copy(), params.upper.copy()
     for k, n in enumerate(model.names):
-        if n in fixed:
+        if n in fixed and not lo[k] <= fixed[n] <= hi[k]:  # a known value outside (or without) a range
             lo[k] = hi[k] = fixed[n]
-    return {"bounds": (lo, hi), "fixed": fixed or None, "x0": params.start or None, "precision": params.precision}
+    precision = {n: p.precision for n, p in params.items() if p.precision is not None}  # the rest: the model's
+    return {"bounds": (lo, hi), "fixed": fixed or None, "x0": params.start or None, "precision": precision or None}
 
 
 def fit(
@@ -142,6 +143,7 @@ def fit(
     integrator: Integrator | AutoSubsteps | None = None,
     runs: int = 50,
     budget: int = 140_000,
+    generations: int | None = None,
     seed: int = 0,
     memory: Memory | None = None,
     polish: bool = False,
@@ -157,7 +159,8 @@ def fit(
     sidecar preset where they name one, else `"auto"`. `integrator`: `Euler(substeps=N)`,
     `RK4(substeps=N)` (the default, N = 1) or `AutoSubsteps(...)`. `method`: a strategy name or object
     (`dcjax.strategies.DERand1Exp(pop_size=70)`); `runs` independent runs of `budget` FEs, run r
-    keyed by `fold_in(PRNGKey(seed), r)`. `memory`: `STMA()`, `LTMA(order=...)`,
+    keyed by `fold_in(PRNGKey(seed), r)`; `generations` stops each run after that many iterations
+    (default: as many as the budget buys without memory, paper Section 4.4). `memory`: `STMA()`, `LTMA(order=...)`,
     `IndexedLTMA()`. `polish`: Levenberg–Marquardt from every run's best. `progress`: True (a
     bar) or a callable taking the fraction done."""
     items = list(data) if isinstance(data, (list, tuple)) else [data]
@@ -173,12 +176,12 @@ def fit(
         joint_weights=joint,
         model=m,
         progress=progress,
-        **engine_options(method, integrator, memory, polish, runs, budget, seed),
+        **engine_options(method, integrator, memory, polish, runs, budget, seed, generations),
         **search_options(params, recordings, m),
     )
 
 
-def engine_options(method, integrator, memory, polish, runs: int, budget: int, seed: int) -> dict:
+def engine_options(method, integrator, memory, polish, runs: int, budget: int, seed: int, generations: int | None = None) -> dict:
     """`identify`'s spelling of the typed options (integrator and memory objects, a strategy)."""
     integrator = RK4() if integrator is None else integrator
     if isinstance(integrator, AutoSubsteps):
@@ -190,5 +193,5 @@ def engine_options(method, integrator, memory, polish, runs: int, budget: int, s
     if memory is not None and not isinstance(memory, Memory):
         raise ValueError(f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {memory!r}")
     pop = method.pop_size if isinstance(method, Strategy) else 70
-    return dict(method=method, runs=runs, budget=budget, seed=seed, polish=bool(polish), pop_size=pop,
+    return dict(method=method, runs=runs, budget=budget, seed=seed, polish=bool(polish), pop_size=pop, generations=generations,
                 memory=None if memory is None else memory.kind, **steps)  # fmt: skip

@@ -47,7 +47,7 @@ def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0,
     first = results[0]
     run_s = first.timing["batch_run_s"]
     return FleetResult(
-        params=np.array([[r.params[k] for k in r.names] for r in results]),
+        params=np.array([[r.best_values[k] for k in r.names] for r in results]),
         of=np.array([r.of for r in results]),
         fes=np.array([r.fes for r in results]),
         timing={

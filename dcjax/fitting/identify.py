@@ -217,6 +217,12 @@ _PASSED_ON = ("method", "integrator", "weights", "bounds", "runs", "budget", "se
               "joint_weights", "memory", "precision", "generations", "model", "fixed", "x0")  # fmt: skip
 
 
+def _source(r: Recording):
+    """Where a recording came from (its loader's record, else its name), with the limit fitted."""
+    src = r.metadata.get("source", {"name": r.name})
+    return {**src, "limit": r.limit} if isinstance(src, dict) else src
+
+
 def _settings(recordings, model, strategy, space, b, given: dict) -> dict:
     """What a result records of its configuration (`given`: identify's arguments)."""
     method, integrator, nd, weights, x0 = (given[k] for k in ("method", "integrator", "nd", "weights", "x0"))
@@ -227,7 +233,7 @@ def _settings(recordings, model, strategy, space, b, given: dict) -> dict:
     name = method if isinstance(method, str) else type(method).__name__
     return {
         "recording": recordings[0].name if len(recordings) == 1 else [r.name for r in recordings],
-        "data": [r.metadata.get("source", {"name": r.name}) for r in recordings],
+        "data": [_source(r) for r in recordings],
         "model": model_spec(model),
         "joint_weights": joint_weights,
         "method": name,
@@ -343,7 +349,7 @@ def make_result(recordings, model, space, out, polished, settings: dict, timing:
     best = int(np.argmin(run_of))
     memory = settings["memory"]
     return IdentificationResult(
-        params=dict(zip(model.names, map(float, run_x[best]))),
+        best_values=dict(zip(model.names, map(float, run_x[best]))),
         of=float(run_of[best]),
         run_of=run_of,
         run_params=run_x,
@@ -371,7 +377,7 @@ def _identify_auto_nd(recordings, nd_tol, nd_max, **kw) -> IdentificationResult:
     res = identify(recordings, nd=1, **kw)
 
     def errors_at(result, nds):
-        x = np.array([result.params[n] for n in result.names])
+        x = np.array([result.best_values[n] for n in result.names])
         refs = [reference_simulate_jit(x, p) for p in result.problems()]
         out = {}
         for nd in nds:

@@ -22,9 +22,10 @@ if TYPE_CHECKING:
 
 @dataclasses.dataclass
 class IdentificationResult:
-    """Best parameters over all runs, per-run results and their statistics."""
+    """Best parameters over all runs (`params`, a `Parameters`; `best_values`, name -> float),
+    per-run results and their statistics."""
 
-    params: dict[str, float]
+    best_values: dict[str, float]
     of: float
     run_of: np.ndarray  # (R,)
     run_params: np.ndarray  # (R, P), physical units, model order
@@ -81,7 +82,7 @@ class IdentificationResult:
         from ..analysis.uncertainty import uncertainty
 
         space = self.space
-        x = np.array([self.params[n] for n in self.names])
+        x = np.array([self.best_values[n] for n in self.names])
         jw = self.settings.get("joint_weights")
         u = uncertainty(x, self.problems(), space, weights=jw)
         if profile is not None:
@@ -168,21 +169,26 @@ class IdentificationResult:
         return float(n * np.log(max(self.chisqr, 1e-300) / n) + np.log(n) * self.nvarys)
 
     @property
-    def parameters(self) -> Parameters:
-        """The best values as `Parameters`: bounds, vary (False for the fixed ones), units and,
-        after `uncertainty()`, standard errors."""
+    def params(self) -> Parameters:
+        """The best values as `Parameters` (lmfit's `result.params`): bounds, vary (False for the
+        fixed ones), units, memory precisions and, after `uncertainty()`, standard errors. A
+        `Parameter` stands for its value in arithmetic (`result.params["Ra"] - 42.5`); the plain
+        floats are `best_values`."""
         b = self.bounds
         u = self._uncertainty
+        prec = dict(zip(self.names, self.settings["precision"])) if self.settings.get("precision") else self.model.memory_precision or {}
         out = []
         for k, n in enumerate(self.names):
             se = None
             if u is not None and n not in self.fixed:
                 se = float(u.se[n])  # pyright: ignore[reportAttributeAccessIssue]
             out.append(
-                Parameter(n, value=self.params[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
-                          unit=self.model.units.get(n, ""), stderr=se)
+                Parameter(n, value=self.best_values[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
+                          unit=self.model.units.get(n, ""), precision=prec.get(n), stderr=se)
             )  # fmt: skip
         return Parameters(out)
+
+    parameters = params  # the 0.2 pre-release name
 
     @property
     def mean_params(self) -> dict[str, float]:
@@ -198,7 +204,7 @@ class IdentificationResult:
             if n in self.fixed:
                 continue
             tol = rtol * (hi[k] - lo[k])
-            if self.params[n] - lo[k] <= tol or hi[k] - self.params[n] <= tol:
+            if self.best_values[n] - lo[k] <= tol or hi[k] - self.best_values[n] <= tol:
                 out.append(n)
         return out
 
@@ -207,7 +213,7 @@ class IdentificationResult:
 
         names = self.names
         return {
-            "params": self.params,
+            "params": dict(self.best_values),
             "of": self.of,
             "runs": [
                 {"of": float(o), "params": dict(zip(names, map(float, p))), "fes": int(n), "iterations": int(it)}
@@ -251,7 +257,7 @@ class IdentificationResult:
         from ..simulation.objectives import simulate
 
         prob = self.problems([recording or self.recording])[0]
-        return np.asarray(simulate(np.array([self.params[n] for n in self.names]), prob))
+        return np.asarray(simulate(np.array([self.best_values[n] for n in self.names]), prob))
 
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
@@ -293,17 +299,20 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
     if recordings is None:
         recordings = []
         for src in d["settings"].get("data", []) or []:
+            if not isinstance(src, dict):
+                continue
             if src.get("path") and Path(src["path"]).is_file():
-                recordings.append(
-                    load_recording(src["path"], **{**(src.get("load") or {}), "model": m})
-                )  # the result's model names the channels
+                rec = load_recording(src["path"], **{**(src.get("load") or {}), "model": m})  # the result's model names the channels
             elif src.get("embedded"):
                 from ..io import datasets
 
-                recordings.append(datasets.load(src["embedded"]))
+                rec = datasets.load(src["embedded"])
+            else:
+                continue
+            recordings.append(rec if "limit" not in src or src["limit"] == rec.limit else rec.replace(limit=src["limit"]))
     hist_len = max((r.get("iterations", 0) for r in runs), default=0)
     return IdentificationResult(
-        params={n: float(d["params"][n]) for n in names},
+        best_values={n: float(d["params"][n]) for n in names},
         of=float(d["of"]),
         run_of=np.array([r["of"] for r in runs], float),
         run_params=np.array([[r["params"][n] for n in names] for r in runs], float),

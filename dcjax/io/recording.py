@@ -24,18 +24,22 @@ class Recording:
     limit in A; `i_a_limit=` and `.i_a_limit` are the paper's name for it) or None, a name and
     free-form metadata.
 
-    `Recording(t=..., u_a=..., i_a=..., omega=...)` for the paper's channels, or
-    `Recording(t=..., channels={"u_a": ..., "i_a": ..., "omega": ..., "theta": ...})`.
-    Channels are read as attributes (`rec.i_a`) or by `rec[name]`."""
+    Channels are named by keyword or in `channels`, whatever the model calls them:
+    `Recording(t=..., u_a=..., i_a=..., omega=...)` (the paper's drive) or
+    `Recording(t=..., channels={"u": ..., "x": ...})`; they are read as attributes (`rec.i_a`)
+    or by `rec[name]`."""
 
     __slots__ = ("t", "channels", "limit", "name", "metadata")
 
-    def __init__(self, t, u_a=None, i_a=None, omega=None, *, channels=None, limit=None, i_a_limit=None, name: str = "", metadata=None):
+    def __init__(self, t, *, channels=None, limit=None, i_a_limit=None, name: str = "", metadata=None, **named_channels):
         object.__setattr__(self, "name", str(name or ""))
         chans = dict(channels or {})
-        for key, v in (("u_a", u_a), ("i_a", i_a), ("omega", omega)):
-            if v is not None:
-                chans[key] = v
+        for key, v in named_channels.items():
+            if v is None:  # a channel not recorded
+                continue
+            if key in chans:
+                raise ValueError(f"{self._where()}channel {key!r} is given twice (by keyword and in channels)")
+            chans[key] = v
         if not chans:
             raise ValueError(f"{self._where()}a recording needs at least one channel besides t")
         arrays = {}

@@ -6,8 +6,11 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
 - `names`, `units`: the parameters, in the order of a parameter vector `x[..., k]`;
 - `states`, `inputs`: the integrated states and the recorded inputs (channel names of a
   `Recording`); `measured`: the states the objective compares with the recording (default all);
-- `bounds`: named bound presets `{preset: {name: (lower, upper)}}`, the first is the default;
-- `precision`: the memory-assistance duplicate precision per parameter (paper Table 29 for `DC`);
+- `presets()`: named `Parameters` presets (search ranges, memory-assistance precisions, units;
+  paper Tables 4, 8 and 29 for `DC`), the first the default, new objects each call. A 0.1 model
+  that sets the class dicts `bounds` (`{preset: {name: (lower, upper)}}`), `precision` and
+  `units` instead still works: the base class builds its presets from them;
+- `units`, `precision`: name -> unit and name -> memory precision (views of the presets for `DC`);
 - `quantities`: channel -> physical quantity (`dcjax.io.units.UNITS`), so a loader can convert units;
 - `limited_state`: the state the supply's limit clamps after every sub-step (`"i_a"` for a drive
   with a current limit), or None;
@@ -22,6 +25,7 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
   so a first estimate can differentiate a measured position when the velocity is not measured.
 """
 
+from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
@@ -40,7 +44,7 @@ class Model(eqx.Module):
     states: ClassVar[tuple[str, ...]] = ()
     inputs: ClassVar[tuple[str, ...]] = ()
     measured: ClassVar[tuple[str, ...] | None] = None
-    bounds: ClassVar[dict[str, dict[str, tuple[float, float]]]] = {}
+    bounds: ClassVar[dict[str, dict[str, tuple[float, float]]]] = {}  # 0.1 protocol, read by `presets`
     precision: ClassVar[dict[str, float] | None] = None
     limited_state: ClassVar[str | None] = None
     quantities: ClassVar[dict[str, str]] = {}  # channel -> quantity ("voltage", ...) for unit conversion
@@ -100,7 +104,7 @@ class Model(eqx.Module):
     def as_array(self, params) -> Float[Array, "*batch P"]:
         """A parameter vector (…, P) from an array, a name -> value mapping or a params module
         with one attribute per name."""
-        if isinstance(params, dict):
+        if isinstance(params, Mapping):
             missing = [n for n in self.names if n not in params]
             if missing:
                 raise ValueError(f"missing parameters {missing} for model {self.name}; need all of {self.names}")
@@ -121,38 +125,56 @@ class Model(eqx.Module):
         x = np.asarray(self.as_array(x))
         return {n: float(x[k]) for k, n in enumerate(self.names)}
 
-    def bound_arrays(self, preset: str | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(lower, upper) of a bounds preset (default: the model's first)."""
-        if not self.bounds:
-            raise ValueError(f"model {self.name} has no bounds presets; give bounds explicitly")
-        key = next(iter(self.bounds)) if preset is None else preset.lower()
-        if key not in self.bounds:
-            raise ValueError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(self.bounds)}")
-        b = self.bounds[key]
-        return np.array([b[n][0] for n in self.names], float), np.array([b[n][1] for n in self.names], float)
+    def presets(self) -> dict[str, Parameters]:
+        """Named `Parameters` presets, the first the default (override this; the base class builds
+        them from the 0.1 class dicts `bounds`, `units` and `precision`)."""
+        prec = self.precision or {}
+        return {
+            key: Parameters([Parameter(n, min=b[n][0], max=b[n][1], unit=self.units.get(n, ""), precision=prec.get(n)) for n in self.names])
+            for key, b in self.bounds.items()
+        }
+
+    @property
+    def preset_names(self) -> tuple[str, ...]:
+        return tuple(self.presets())
 
     def parameters(self, preset: str | None = None) -> Parameters:
-        """`Parameters` from a bounds preset (default the model's first; none: unbounded), with
-        the model's units and memory precisions; no values."""
-        lo, hi = self.bound_arrays(preset) if self.bounds or preset is not None else (None, None)
-        prec = self.precision or {}
-        return Parameters(
-            [
-                Parameter(
-                    n,
-                    min=-np.inf if lo is None else float(lo[k]),
-                    max=np.inf if hi is None else float(hi[k]),
-                    unit=self.units.get(n, ""),
-                    precision=prec.get(n),
-                )
-                for k, n in enumerate(self.names)
-            ]
-        )
+        """A preset's `Parameters` (default the model's first; a model without presets: unbounded,
+        with its units and precisions), a new object to change freely."""
+        presets = self.presets()
+        if preset is None and not presets:
+            prec = self.memory_precision or {}
+            return Parameters([Parameter(n, unit=self.units.get(n, ""), precision=prec.get(n)) for n in self.names])
+        if not presets:
+            raise ValueError(f"model {self.name} has no parameter presets; give bounds explicitly")
+        key = next(iter(presets)) if preset is None else str(preset).lower()
+        if key not in presets:
+            raise ValueError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(presets)}")
+        params = presets[key]
+        params.check(self.names, self.name)
+        for n, p in params.items():  # a preset may leave the units to the model's `units`
+            p.unit = p.unit or self.units.get(n, "")
+        return params
+
+    def bound_arrays(self, preset: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) of a preset (default: the model's first)."""
+        if not self.preset_names:
+            raise ValueError(f"model {self.name} has no bounds presets; give bounds explicitly")
+        params = self.parameters(preset)
+        return params.lower, params.upper
+
+    @property
+    def memory_precision(self) -> dict[str, float] | None:
+        """Name -> the memory-assistance precision: the default preset's, else the class dict."""
+        presets = self.presets()
+        first = next(iter(presets.values())).precision if presets else None
+        return first if first is not None else self.precision
 
     def precision_array(self) -> np.ndarray:
-        if self.precision is None:
+        prec = self.memory_precision
+        if prec is None:
             raise ValueError(f"model {self.name} defines no memory precision; pass precision= explicitly")
-        return np.array([self.precision[n] for n in self.names], float)
+        return np.array([prec[n] for n in self.names], float)
 
     def clamp(self, y: tuple[Array, ...], limit) -> tuple[Array, ...]:
         """|y[limited_state]| <= limit (the supply's current limit, Section 4, Fig. 4)."""

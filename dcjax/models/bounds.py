@@ -10,7 +10,7 @@ import numpy.typing as npt
 from jaxtyping import Array, ArrayLike, Float
 
 from . import DC, Model
-from .dc import TABLE4_LIMITS, TABLE8_LIMITS
+from .dc import table4, table8
 
 
 class Bounds(eqx.Module):
@@ -58,12 +58,8 @@ class Bounds(eqx.Module):
         return {n: [float(lo[k]), float(hi[k])] for k, n in enumerate(names)}
 
 
-def _preset(limits) -> Bounds:
-    return Bounds([limits[n][0] for n in DC.names], [limits[n][1] for n in DC.names], DC.names)
-
-
-TABLE4 = _preset(TABLE4_LIMITS)
-TABLE8 = _preset(TABLE8_LIMITS)
+TABLE4 = Bounds(table4().lower, table4().upper, DC.names)
+TABLE8 = Bounds(table8().lower, table8().upper, DC.names)
 
 
 def bounds_preset(name: str, model: Model | None = None) -> Bounds:
@@ -80,7 +76,7 @@ def resolve_bounds(model: Model, bounds=None, overrides: Mapping[str, tuple[floa
         overrides = {**bounds, **(overrides or {})}
         bounds = None
     if bounds is None or isinstance(bounds, str):
-        if bounds is None and not model.bounds:
+        if bounds is None and not model.preset_names:
             raise ValueError(f"model {model.name} has no bounds presets; give bounds for {', '.join(model.names)}")
         b = Bounds(*model.bound_arrays(bounds), model.names)
     elif isinstance(bounds, Bounds):

@@ -6,6 +6,7 @@
 `DC`: T_load = Tla + Tlb w + Tlc w^2 (eq. 5), the paper's load, the package default.
 `DCCoulomb`: T_load = Tla sgn(w) + Tlb w + Tlc w |w|, odd in w, for drives that reverse."""
 
+from collections.abc import Mapping
 from typing import ClassVar
 
 import equinox as eqx
@@ -14,35 +15,41 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .base import Model
+from .parameters import Parameter, Parameters
 
 NAMES = ("Ra", "La", "cm", "J", "Tla", "Tlb", "Tlc")
-UNITS = {"Ra": "Ohm", "La": "H", "cm": "Vs", "J": "kg m^2", "Tla": "Nm", "Tlb": "Nm s", "Tlc": "Nm s^2"}
 
-# Table 4: limits for the simulated data SD1–SD4.
-TABLE4_LIMITS = {
-    "Ra": (0.0, 100.0),
-    "La": (0.0, 1.0),
-    "cm": (0.0, 5.0),
-    "J": (0.0, 1.0),
-    "Tla": (0.0, 1.0),
-    "Tlb": (0.0, 1e-3),
-    "Tlc": (0.0, 1e-6),
-}
-# Table 8: limits for the measured data MD1–MD4 (Tlb, Tlc: 20 Nm at 209 1/s).
-# The extracted text prints Tlc <= 4.56e-6, but the table's own rule gives 20/209^2 = 4.58e-4
-# and Table 9 reports a mean fitted Tlc of 4.99e-5, above 4.56e-6: the exponent is -4.
-TABLE8_LIMITS = {
-    "Ra": (0.0, 100.0),
-    "La": (0.0, 100.0),
-    "cm": (0.0, 5.0),
-    "J": (0.0, 1.0),
-    "Tla": (0.0, 20.0),
-    "Tlb": (0.0, 9.55e-2),
-    "Tlc": (0.0, 4.56e-4),
-}
-# Table 29: Ra < 1 mOhm, La < 1 mH, cm < 1 mVs, J < 1e-4 kgm^2, Tla < 1 mNm, Tlb < 5e-6 Nms and
-# Tlc < 2e-8 Nms^2 (1 mNm at 209 1/s).
-TABLE29_PRECISION = {"Ra": 1e-3, "La": 1e-3, "cm": 1e-3, "J": 1e-4, "Tla": 1e-3, "Tlb": 5e-6, "Tlc": 2e-8}
+
+def table4() -> Parameters:
+    """Table 4: the search ranges for the simulated data SD1–SD4, with the units and Table 29's
+    memory precisions (Ra < 1 mOhm, La < 1 mH, cm < 1 mVs, J < 1e-4 kgm^2, Tla < 1 mNm, Tlb <
+    5e-6 Nms, Tlc < 2e-8 Nms^2: 1 mNm at 209 1/s). A new `Parameters` each call."""
+    return Parameters(
+        [
+            Parameter("Ra", min=0.0, max=100.0, unit="Ohm", precision=1e-3),
+            Parameter("La", min=0.0, max=1.0, unit="H", precision=1e-3),
+            Parameter("cm", min=0.0, max=5.0, unit="Vs", precision=1e-3),
+            Parameter("J", min=0.0, max=1.0, unit="kg m^2", precision=1e-4),
+            Parameter("Tla", min=0.0, max=1.0, unit="Nm", precision=1e-3),
+            Parameter("Tlb", min=0.0, max=1e-3, unit="Nm s", precision=5e-6),
+            Parameter("Tlc", min=0.0, max=1e-6, unit="Nm s^2", precision=2e-8),
+        ]
+    )
+
+
+def table8() -> Parameters:
+    """Table 8: the ranges for the measured data MD1–MD4 (Tlb, Tlc: 20 Nm at 209 1/s); the rest
+    as Table 4. The extracted text prints Tlc <= 4.56e-6, but the table's own rule gives 20/209^2
+    = 4.58e-4 and Table 9 reports a mean fitted Tlc of 4.99e-5, above 4.56e-6: the exponent is -4."""
+    params = table4()
+    for name, upper in (("La", 100.0), ("Tla", 20.0), ("Tlb", 9.55e-2), ("Tlc", 4.56e-4)):
+        params[name].set(max=upper)
+    return params
+
+
+# Views of the presets for the protocol's readers (one source: the functions above).
+UNITS = {n: p.unit for n, p in table4().items()}
+TABLE29_PRECISION: dict[str, float] = {n: float(p.precision) for n, p in table4().items()}  # pyright: ignore[reportArgumentType]
 
 
 class Coefficients(eqx.Module):
@@ -63,7 +70,7 @@ class Coefficients(eqx.Module):
     @classmethod
     def from_params(cls, p) -> "Coefficients":
         """From a name -> value mapping or a `Params`."""
-        g = p.__getitem__ if isinstance(p, dict) else p.__getattribute__
+        g = p.__getitem__ if isinstance(p, Mapping) else p.__getattribute__
         inv_la = 1.0 / g("La")
         inv_j = 1.0 / g("J")
         return cls(inv_la, g("Ra") * inv_la, g("cm") * inv_la, g("cm") * inv_j, g("Tla") * inv_j, g("Tlb") * inv_j, g("Tlc") * inv_j)
@@ -90,7 +97,6 @@ class DC(Model):
     units: ClassVar[dict[str, str]] = UNITS
     states: ClassVar[tuple[str, ...]] = ("i_a", "omega")
     inputs: ClassVar[tuple[str, ...]] = ("u_a",)
-    bounds: ClassVar[dict] = {"table4": TABLE4_LIMITS, "table8": TABLE8_LIMITS}
     precision: ClassVar[dict[str, float] | None] = TABLE29_PRECISION
     limited_state: ClassVar[str | None] = "i_a"
     quantities: ClassVar[dict[str, str]] = {"u_a": "voltage", "i_a": "current", "omega": "angular speed"}
@@ -98,6 +104,9 @@ class DC(Model):
     @property
     def name(self) -> str:
         return "dc"
+
+    def presets(self) -> dict[str, Parameters]:
+        return {"table4": table4(), "table8": table8()}
 
     def coefficients(self, p):
         return Coefficients.from_params(p)

@@ -5,10 +5,16 @@ range `min`/`max`, whether it is searched (`vary`), its unit, the memory-assista
     params = dcjax.DC().parameters("table8")
     params["Tlc"].set(value=0.0, vary=False)
     params["Ra"].set(min=0.0, max=10.0)
+
+A `Parameter` stands for its value in arithmetic, comparisons, `float()`, formatting and NumPy
+(as lmfit's does): `result.params["Ra"] - 42.5`, `f"{result.params['J']:.3g}"`,
+`np.array([result.params[n] for n in names])`.
 """
 
 import dataclasses
 import math
+import numbers
+import operator
 from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
@@ -16,7 +22,7 @@ import numpy as np
 _UNSET = object()
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(eq=False)
 class Parameter:
     """One parameter: `value` (None: not known; a varying parameter's value seeds the search),
     range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`."""
@@ -43,6 +49,92 @@ class Parameter:
                 raise ValueError(f"{self.name}.vary must be True or False, got {vary!r}")
             self.vary = bool(vary)
         return self
+
+    # -- the value in arithmetic (lmfit's Parameter does the same) ------------------------------
+    def __float__(self) -> float:
+        if self.value is None:
+            raise ValueError(f"parameter {self.name} has no value")
+        return float(self.value)
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        return np.asarray(float(self), dtype=dtype)
+
+    def __format__(self, spec: str) -> str:
+        return format(float(self), spec) if spec else str(self)
+
+    def __repr__(self) -> str:
+        se = "" if self.stderr is None else f" +/- {self.stderr:.3g}"
+        fixed = "" if self.vary else " (fixed)"
+        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}>"
+
+    def __eq__(self, other) -> bool:
+        """Another `Parameter`: every field equal; a number: the value equal."""
+        if isinstance(other, Parameter):
+            return dataclasses.astuple(self) == dataclasses.astuple(other)
+        if isinstance(other, (numbers.Real, np.ndarray)):
+            return self.value is not None and self.value == other  # pyright: ignore[reportReturnType]
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]  # mutable
+
+    def __neg__(self) -> float:
+        return -float(self)
+
+    def __pos__(self) -> float:
+        return float(self)
+
+    def __abs__(self) -> float:
+        return abs(float(self))
+
+    def __round__(self, ndigits: int | None = None):
+        return round(float(self), ndigits)
+
+    def _op(self, other, op, reflected=False):
+        if isinstance(other, Parameter):
+            other = float(other)
+        return op(other, float(self)) if reflected else op(float(self), other)
+
+    def __add__(self, o):
+        return self._op(o, operator.add)
+
+    def __radd__(self, o):
+        return self._op(o, operator.add, True)
+
+    def __sub__(self, o):
+        return self._op(o, operator.sub)
+
+    def __rsub__(self, o):
+        return self._op(o, operator.sub, True)
+
+    def __mul__(self, o):
+        return self._op(o, operator.mul)
+
+    def __rmul__(self, o):
+        return self._op(o, operator.mul, True)
+
+    def __truediv__(self, o):
+        return self._op(o, operator.truediv)
+
+    def __rtruediv__(self, o):
+        return self._op(o, operator.truediv, True)
+
+    def __pow__(self, o):
+        return self._op(o, operator.pow)
+
+    def __rpow__(self, o):
+        return self._op(o, operator.pow, True)
+
+    def __lt__(self, o):
+        return self._op(o, operator.lt)
+
+    def __le__(self, o):
+        return self._op(o, operator.le)
+
+    def __gt__(self, o):
+        return self._op(o, operator.gt)
+
+    def __ge__(self, o):
+        return self._op(o, operator.ge)
 
     @property
     def relative_stderr(self) -> float | None:
@@ -91,6 +183,10 @@ class Parameters(Mapping[str, Parameter]):
 
     def valuesdict(self) -> dict[str, float | None]:
         return {n: p.value for n, p in self._items.items()}
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        """The values in order (lmfit's `np.array(params)`)."""
+        return np.array([float(p) for p in self._items.values()], dtype=dtype)
 
     @property
     def lower(self) -> np.ndarray:

@@ -30,8 +30,9 @@ def physical_precision(precision: ArrayLike | dict | None, model: Model) -> np.n
         return model.precision_array()
     if isinstance(precision, dict):
         model.check_names(precision)
-        base = model.precision_array() if model.precision is not None else np.zeros(model.n_params)
-        missing = [n for n in model.names if n not in precision and model.precision is None]
+        known = model.memory_precision is not None
+        base = model.precision_array() if known else np.zeros(model.n_params)
+        missing = [n for n in model.names if n not in precision and not known]
         if missing:
             raise ValueError(f"precision needs a value for {missing} (model {model.name} has no default)")
         return np.array([float(precision.get(n, base[k])) for k, n in enumerate(model.names)])

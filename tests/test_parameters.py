@@ -101,6 +101,7 @@ def test_result_params_are_parameters_and_result_json_keeps_values(tmp_path):
     res.to_json(path)
     d = json.loads(path.read_text())
     assert d["params"] == res.best_values and all(isinstance(v, float) for v in d["params"].values())
+    assert dcjax.Parameters.from_dict(d["parameters"]) == res.params  # the whole Parameters, saved with the result
     back = dcjax.load_result(path)
     assert back.best_values == res.best_values and back.recording is not None and back.recording.limit == 9.0  # the fitted limit
 

@@ -214,6 +214,7 @@ class IdentificationResult:
         names = self.names
         return {
             "params": dict(self.best_values),
+            "parameters": self.params.to_dict(),  # value, min, max, vary, unit, precision, stderr
             "of": self.of,
             "runs": [
                 {"of": float(o), "params": dict(zip(names, map(float, p))), "fes": int(n), "iterations": int(it)}

@@ -238,7 +238,7 @@ def fit_each_cmd(args, model, options) -> int:
     """`dcjax fit --each`: one fit per file (`dcjax.fitting.fit_each`: the files of one length in
     one compiled call); a file that fails to load, validate or fit is reported and the others are
     fitted."""
-    from ..fitting.each import FailedFit, fit_each, summary_rows, write_summary
+    from ..fitting.each import FailedFit, _check, fit_each, summary_rows, write_summary
 
     out = Path(args.out)
     results: list = [None] * len(args.data)
@@ -247,6 +247,7 @@ def fit_each_cmd(args, model, options) -> int:
         label = Path(data).stem if Path(data).exists() else data
         try:
             rec = _prepared(_load(data, args, model), args, model)
+            _check(rec, model, {})  # what a fit would refuse, before the first estimate of --bounds auto
             ready.append((k, rec, _file_params(args, model, rec)))
         except Exception as e:  # one broken file fails alone, whatever broke
             results[k] = FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data)

@@ -42,12 +42,13 @@ def fit_each(
     **options,
 ) -> list[IdentificationResult | FailedFit]:
     """`dcjax.fitting.fit` on each recording on its own (not a joint fit), with the same options
-    (`integrator`, `runs`, `budget`, `seed`, `memory`, `polish`, `progress`).
+    (`integrator`, `runs`, `budget`, `generations`, `seed`, `memory`, `polish`, `progress`).
 
     `items`: recordings, or paths loaded with `load` (default `dcjax.load_recording` with the
     model). A recording that fails to load, validate or fit gets a `FailedFit` with its one-line
     error and every other one is fitted. `params`: as `fit` takes it, for every recording, or a
-    list with one entry per item; None takes each recording's sidecar preset, else `"auto"`. Recordings of one length (and channels, limit, weights) are fitted in one
+    list with one entry per item; None takes each recording's sidecar preset, else `"auto"`.
+    Recordings of one length (and channels, limit, weights, fixed parameters) are fitted in one
     compiled call (`dcjax.fitting.batch.identify_each`: the same results as one fit each); with
     `AutoSubsteps` or `progress` they are fitted one after another."""
     from ..io.loading import load_recording

@@ -151,7 +151,10 @@ class Model(eqx.Module):
         if key not in presets:
             raise ValueError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(presets)}")
         params = presets[key]
-        params.check(self.names, self.name)
+        if params.names != tuple(self.names):
+            raise ValueError(
+                f"preset {key!r} of model {self.name} must name {', '.join(self.names)} in order, got {', '.join(params.names)}"
+            )
         for n, p in params.items():  # a preset may leave the units to the model's `units`
             p.unit = p.unit or self.units.get(n, "")
         return params

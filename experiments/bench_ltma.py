@@ -12,7 +12,8 @@ import dcjax
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
-from dcjax import LTMA, RK4, STMA, IndexedLTMA, datasets, fit  # noqa: E402
+from dcjax import RK4, datasets, fit  # noqa: E402
+from dcjax.fitting.fit import MEMORIES  # noqa: E402
 
 
 def main():
@@ -23,9 +24,7 @@ def main():
     rec = datasets.load("MD1")
     base = None
     for kind in args.kinds:
-        mem = {"none": None, "stma": STMA(), "ltma-s1": LTMA(order="oldest"), "ltma-s2": LTMA(order="newest"), "ltma-hash": IndexedLTMA()}[
-            kind
-        ]
+        mem = None if kind == "none" else MEMORIES[kind]
         kw = dict(params="table8", integrator=RK4(substeps=5), runs=args.runs, memory=mem)
         fit(rec.replace(limit=11.44), **kw)  # compiles
         r = fit(rec.replace(limit=11.44), **kw)

@@ -20,6 +20,7 @@ import numpy as np
 
 import dcjax
 from dcjax import datasets, load_csv
+from dcjax.fitting.fit import INTEGRATORS, MEMORIES
 from dcjax.io.datasets import DATA_DIR
 from dcjax.io.emulate import LAB_EFFECTS, Effects, emulate, md_settings
 
@@ -118,21 +119,13 @@ def method_for(cell: Cell):
     return DERand1Exp(**kw)
 
 
-MEMORIES = {
-    "stma": dcjax.STMA(),
-    "ltma-s1": dcjax.LTMA(order="oldest"),
-    "ltma-s2": dcjax.LTMA(order="newest"),
-    "ltma-hash": dcjax.IndexedLTMA(),
-}
-
-
 def run_cell(cell: Cell) -> dict:
     """Run the cell (`dcjax.fit`); its store line."""
     recs = [dcjax.with_weights(r, {"i_a": cell.w1, "omega": cell.w2}) for r in recordings(cell)]
     params = dcjax.DC().parameters(recs[0].metadata.get("bounds", "table4"))
     for name, value in cell.fixed_params.items():
         params[name].set(value=value, vary=False)
-    integrator = dcjax.Euler(substeps=cell.nd) if cell.integrator == "euler" else dcjax.RK4(substeps=cell.nd)
+    integrator = INTEGRATORS[cell.integrator](substeps=cell.nd)
     r = dcjax.fit(
         recs if len(recs) > 1 else recs[0],
         params=params,

@@ -68,21 +68,14 @@ def _bounds(args, model, rec):
     return resolve_bounds(model, bounds, _named_ranges(args.bound, "--bound")), start
 
 
-MEMORIES = {"stma": ("STMA", {}), "ltma-s1": ("LTMA", {"order": "oldest"}), "ltma-s2": ("LTMA", {"order": "newest"}),
-            "ltma-hash": ("IndexedLTMA", {})}  # fmt: skip
-
-
 def _options(args, model) -> dict:
     """The `dcjax.fit` options every file of this command shares (the parameters are per file)."""
-    from ..fitting import fit as typed
+    from ..fitting.fit import INTEGRATORS, MEMORIES, AutoSubsteps
 
     nd = _nd(args.nd)
-    step = typed.Euler if args.integrator == "euler" else typed.RK4
-    integrator = typed.AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
-    memory = None
-    if args.memory is not None:
-        cls, kw = MEMORIES[args.memory]
-        memory = getattr(typed, cls)(**kw)
+    step = INTEGRATORS[args.integrator]
+    integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
+    memory = None if args.memory is None else MEMORIES[args.memory]
     return dict(method=args.method, integrator=integrator, runs=args.runs, budget=args.budget, generations=args.generations,
                 seed=args.seed, memory=memory, polish=args.polish)  # fmt: skip
 

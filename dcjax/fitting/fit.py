@@ -9,6 +9,7 @@ a joint fit's weights) lives with the recordings (`with_weights`, `Recording.lim
 belongs to the search (population size, F, CR) with the strategy object (`dcjax.strategies.DERand1Exp(pop_size=40, f=0.5)`)."""
 
 from collections.abc import Mapping, Sequence
+from types import MappingProxyType
 from typing import Literal
 
 import equinox as eqx
@@ -85,6 +86,11 @@ class IndexedLTMA(Memory):
     @property
     def kind(self) -> str:
         return "ltma-hash"
+
+
+# The typed options by the names the CLI, the sidecars and the experiments' store spell them.
+INTEGRATORS: Mapping[str, type[Integrator]] = MappingProxyType({"euler": Euler, "rk4": RK4})
+MEMORIES: Mapping[str, Memory] = MappingProxyType({m.kind: m for m in (STMA(), LTMA(order="oldest"), LTMA(order="newest"), IndexedLTMA())})
 
 
 def with_weights(recording: Recording, weights: Mapping[str, float] | None = None, joint_weight: float | None = None) -> Recording:

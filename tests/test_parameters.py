@@ -90,6 +90,8 @@ def test_recording_channels_by_any_name():
     assert list(dcjax.Recording(t=t, u_a=t, i_a=t, omega=None).channels) == ["u_a", "i_a"]  # None: not recorded
     with pytest.raises(ValueError, match="channel 'u' is given twice"):
         dcjax.Recording(t=t, u=t, channels={"u": t})
+    with pytest.raises(ValueError, match="i_limit=5.0: a keyword of Recording is a channel.*limit="):
+        dcjax.Recording(t=t, u=t, i_limit=5.0)
 
 
 def test_result_params_are_parameters_and_result_json_keeps_values(tmp_path):

@@ -173,7 +173,8 @@ class IdentificationResult:
         """The best values as `Parameters` (lmfit's `result.params`): bounds, vary (False for the
         fixed ones), units, memory precisions and, after `uncertainty()`, standard errors. A
         `Parameter` stands for its value in arithmetic (`result.params["Ra"] - 42.5`); the plain
-        floats are `best_values`."""
+        floats are `best_values`. Built from the result on each access: a copy to change and pass
+        to the next `fit`, which leaves this result as it is."""
         b = self.bounds
         u = self._uncertainty
         prec = dict(zip(self.names, self.settings["precision"])) if self.settings.get("precision") else self.model.memory_precision or {}

@@ -39,6 +39,11 @@ class Recording:
                 continue
             if key in chans:
                 raise ValueError(f"{self._where()}channel {key!r} is given twice (by keyword and in channels)")
+            if np.ndim(v) == 0:  # a misspelt option, not a channel
+                raise ValueError(
+                    f"{self._where()}{key}={v!r}: a keyword of Recording is a channel (a 1-D array); the options are "
+                    "channels=, limit= (or i_a_limit=), name= and metadata="
+                )
             chans[key] = v
         if not chans:
             raise ValueError(f"{self._where()}a recording needs at least one channel besides t")

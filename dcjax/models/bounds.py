@@ -58,8 +58,7 @@ class Bounds(eqx.Module):
         return {n: [float(lo[k]), float(hi[k])] for k, n in enumerate(names)}
 
 
-TABLE4 = Bounds(table4().lower, table4().upper, DC.names)
-TABLE8 = Bounds(table8().lower, table8().upper, DC.names)
+TABLE4, TABLE8 = (Bounds(p.lower, p.upper, DC.names) for p in (table4(), table8()))
 
 
 def bounds_preset(name: str, model: Model | None = None) -> Bounds:

@@ -9,6 +9,9 @@ Importing dcjax enables ``jax_enable_x64``: the paper's best objective values ar
 which float32 cannot resolve. It changes nothing else: for one CPU device per core (independent
 runs sharded over the cores) and time loops compiled as one function, call
 ``dcjax.use_host_devices()`` and ``dcjax.use_compiled_loops()`` before any JAX computation.
+
+The 0.1 names (`identify`, `Params`, `PARAM_NAMES`, `TABLE4`, ...) still work from `dcjax.compat`
+and warn (`DeprecationWarning`); they are not in `__all__`.
 """
 
 import jax
@@ -19,34 +22,30 @@ from .analysis.design import design_input  # noqa: E402
 from .analysis.estimate import initial_estimate  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
 from .fitting.each import FailedFit, fit_each  # noqa: E402
-from .fitting.fit import LTMA, RK4, STMA, AutoSubsteps, Euler, IndexedLTMA, fit, with_weights  # noqa: E402
-from .fitting.identify import identify  # noqa: E402
-from .fitting.result import FitResult, IdentificationResult, load_result  # noqa: E402
+from .fitting.engine import with_weights  # noqa: E402
+from .fitting.fit import fit  # noqa: E402
+from .fitting.result import FitResult, load_result  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402
 from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
 from .models import DC, MODELS, DCCoulomb, Model, get_model  # noqa: E402
-from .models.bounds import TABLE4, TABLE8, Bounds, bounds_preset  # noqa: E402
+from .models.bounds import Bounds  # noqa: E402
 from .models.parameters import Parameter, Parameters  # noqa: E402
-from .models.params import PARAM_NAMES, Params  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
+from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Euler, Integrator  # noqa: E402
 from .simulation.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
+from .strategies.memory import LTMA, MEMORIES, STMA, IndexedLTMA, MemoryAssistance  # noqa: E402
 from .version import __version__  # noqa: E402
 
 __all__ = [
     "datasets",
     "__version__",
-    "PARAM_NAMES",
-    "Params",
     "Model",
     "DC",
     "DCCoulomb",
     "MODELS",
     "get_model",
     "Bounds",
-    "TABLE4",
-    "TABLE8",
-    "bounds_preset",
     "Space",
     "make_space",
     "Recording",
@@ -63,21 +62,40 @@ __all__ = [
     "fit_each",
     "FailedFit",
     "with_weights",
+    "Integrator",
     "Euler",
     "RK4",
     "AutoSubsteps",
+    "INTEGRATORS",
+    "MemoryAssistance",
     "STMA",
     "LTMA",
     "IndexedLTMA",
+    "MEMORIES",
     "Parameter",
     "Parameters",
     "initial_estimate",
     "design_input",
     "FitResult",
-    "identify",
-    "IdentificationResult",
     "load_result",
     "use_host_devices",
     "use_compiled_loops",
     "use_compilation_cache",
 ]
+
+
+_DEPRECATED = ("identify", "identify_each", "identify_fleet", "FleetResult", "IdentificationResult", "Params", "PARAM_NAMES",
+               "TABLE4", "TABLE8", "bounds_preset")  # fmt: skip
+
+
+def __getattr__(name: str):
+    """The 0.1 names (`dcjax.compat.DEPRECATED`), each with a `DeprecationWarning`."""
+    if name not in _DEPRECATED:
+        raise AttributeError(f"module 'dcjax' has no attribute {name!r}")
+    import importlib
+
+    from .deprecation import warn_deprecated
+
+    obj, new = importlib.import_module("dcjax.compat").DEPRECATED[name]
+    warn_deprecated(f"dcjax.{name}", new)
+    return obj

@@ -40,7 +40,7 @@ def experiment(label, truth, inputs, duration, dt, u_range, hold, i_limit, bound
     x = np.array([truth[n] for n in NAMES])
     t = np.arange(int(round(duration / dt)) + 1) * dt
     t0 = time.perf_counter()
-    design = design_input("dc", truth, duration=duration, dt=dt, u_range=u_range, hold=hold, i_limit=i_limit)
+    design = design_input("dc", truth, duration=duration, dt=dt, u_range=u_range, hold=hold, limit=i_limit)
     print(
         f"\n{label}: design ({design.criterion}-optimal, hold {hold:g} s) in {time.perf_counter() - t0:.1f} s; levels {np.round(design.levels, 1).tolist()}"
     )
@@ -54,7 +54,7 @@ def experiment(label, truth, inputs, duration, dt, u_range, hold, i_limit, bound
         t1 = time.perf_counter()
         for seed in range(seeds):
             y = measured(x, t, u, sigma, seed, i_limit, nd)
-            rec = Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], i_a_limit=i_limit, name=f"{name}-{seed}")
+            rec = Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], limit=i_limit, name=f"{name}-{seed}")
             res = dcjax.fit(rec, params=bounds, runs=runs, seed=seed, polish=True)
             errs.append([abs(res.params[n] - truth[n]) / abs(truth[n]) if truth[n] else abs(res.params[n]) for n in NAMES])
         rows[name] = (np.mean(errs, axis=0), pred)

@@ -27,11 +27,12 @@ METHODS = ["ga", "de-rand-1-exp", "de-best-1-bin", "tlbo", "abc"]
 def _single(method: str, repeats: int = 3) -> dict:
     import jax
 
-    from dcjax import TABLE4, Params, datasets, make_problem, objective
+    from dcjax import DC, datasets, make_problem, objective
     from dcjax.strategies import make_strategy, run
 
     prob = make_problem(datasets.load("SD1"))
-    fn = lambda z: objective(Params.from_array(TABLE4.to_physical(z)), prob)
+    box = DC().parameters("table4")
+    fn = lambda z: objective(box.lower + z * (box.upper - box.lower), prob)
     s = make_strategy(method)
     f = jax.jit(lambda k: run(s, k, fn, 140_000, 7))
     t0 = time.perf_counter()
@@ -64,14 +65,13 @@ def _batched(method: str, runs: int = 50) -> dict:
 
 
 def _scipy() -> dict:
-    import numpy as np
     from scipy.optimize import differential_evolution
 
-    from dcjax import TABLE4, datasets
+    from dcjax import DC, datasets
     from dcjax.io.reference import objective_numpy
 
     rec = datasets.load("SD1")
-    lo, hi = np.asarray(TABLE4.lower), np.asarray(TABLE4.upper)
+    lo, hi = DC().parameters("table4").lower, DC().parameters("table4").upper
 
     def f(x):  # vectorized: x has shape (7, S)
         return objective_numpy(x.T, rec.t, rec.u_a, rec.i_a, rec.omega)

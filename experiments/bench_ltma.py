@@ -12,8 +12,12 @@ import dcjax
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
-from dcjax import RK4, datasets, fit  # noqa: E402
-from dcjax.fitting.fit import MEMORIES  # noqa: E402
+from dcjax import (  # noqa: E402
+    MEMORIES,
+    RK4,
+    datasets,
+    fit,
+)
 
 
 def main():

@@ -13,13 +13,14 @@ import jax
 import jax.numpy as jnp
 
 import dcjax
-from dcjax import TABLE8, Params, load_csv, make_problem, objective
+from dcjax import DC, INTEGRATORS, load_csv, make_problem, objective
 from dcjax.io.datasets import DATA_DIR
 from dcjax.strategies.compact import compacted
-from dcjax.strategies.memory import Memory
+from dcjax.strategies.memory import MEMORIES
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 dcjax.use_compiled_loops()
+BOX = DC().parameters("table8")
 
 
 def best_of(f, *args, reps=30):
@@ -38,8 +39,8 @@ def main():
     rec = load_csv(DATA_DIR / "MD1.csv")
     print(f"MD1: {len(rec)} samples; devices: {jax.device_count()} (timings on one)")
     for integ, nd in (("rk4", 1), ("rk4", 10)):
-        prob = make_problem(rec, integrator=integ, nd=nd)
-        fn = lambda z, prob=prob: objective(Params.from_array(TABLE8.to_physical(z)), prob)
+        prob = make_problem(rec, INTEGRATORS[integ](substeps=nd))
+        fn = lambda z, prob=prob: objective(BOX.lower + z * (BOX.upper - BOX.lower), prob)
         for batch in (1, 25):
             z = jax.random.uniform(jax.random.PRNGKey(0), (batch, 70, 7))
             full = jax.jit(jax.vmap(fn))
@@ -55,7 +56,7 @@ def main():
     prec = jnp.full(7, 1e-5)
     for kind, n in (("stma", 70), ("ltma-s1", 10_000), ("ltma-s1", 30_000)):
         recs = jax.random.uniform(jax.random.PRNGKey(3), (n, 7))
-        m = Memory.create(kind, prec, recs[:70], jnp.zeros(70), jnp.ones(70, bool), 140_070)
+        m = MEMORIES[kind].create(prec, recs[:70], jnp.zeros(70), jnp.ones(70, bool), 140_070)
         if kind != "stma":
             m = m.add(recs[70:], jnp.zeros(n - 70), jnp.ones(n - 70, bool))
         t = best_of(jax.jit(lambda m, z: m.lookup(z)[0]), m, z)

@@ -18,9 +18,14 @@ dcjax.use_compiled_loops()
 def main():
     label = sys.argv[1] if len(sys.argv) > 1 else dcjax.__version__
     rec = datasets.load("SD1")
-    # `identify`, not `fit`: the same script times the 0.1 commit (3056edf), which has no `fit`.
-    dcjax.identify(rec, runs=1, seed=99)  # compiles
-    t = [dcjax.identify(rec, runs=1, seed=s).timing["run_s"] for s in range(9)]
+    # `fit` where the checkout has it (0.2), else `identify`: the same script times the 0.1 commit (3056edf).
+    one = (
+        (lambda s: dcjax.fit(rec, params="table4", runs=1, seed=s))
+        if hasattr(dcjax, "fit")
+        else (lambda s: dcjax.identify(rec, runs=1, seed=s))
+    )
+    one(99)  # compiles
+    t = [one(s).timing["run_s"] for s in range(9)]
     print(f"{label}: one SD1 DE run (140,000 FEs, RK4): min {min(t):.4f} s, median {statistics.median(t):.4f} s")
 
 

@@ -1,4 +1,4 @@
-"""Overhead of progress reporting (issue 13): `identify` on SD1 (DE/rand/1/exp, RK4, 140,000 FEs,
+"""Overhead of progress reporting (issue 13): `fit` on SD1 (DE/rand/1/exp, RK4, 140,000 FEs,
 50 runs, one CPU device per core) with and without `progress` (`PROGRESS_CHUNKS` chunks), alternated, run times
 only (compilation excluded; every executable is compiled before the timed calls).
 
@@ -14,8 +14,7 @@ dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
 from dcjax import datasets, fit  # noqa: E402
-
-dcjax.identify_module = __import__("importlib").import_module("dcjax.fitting.identify")
+from dcjax.fitting.engine import PROGRESS_CHUNKS  # noqa: E402
 
 
 def main(repeats: int = 6, runs: int = 50):
@@ -35,7 +34,7 @@ def main(repeats: int = 6, runs: int = 50):
     print(
         f"median run time: without {m0:.3f} s, with {m1:.3f} s; median of paired ratios {ratio:.3f} "
         f"-> overhead {100 * (ratio - 1):+.1f} % ({runs} runs, {len(__import__('jax').devices())} CPU devices, "
-        f"{dcjax.identify_module.PROGRESS_CHUNKS} chunks)"
+        f"{PROGRESS_CHUNKS} chunks)"
     )
 
 

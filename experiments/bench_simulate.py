@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import dcjax
-from dcjax import TABLE4, Params, datasets, make_problem, objective
+from dcjax import DC, datasets, make_problem, objective
 from dcjax.io.reference import objective_numpy
 from dcjax.simulation.integrate import prepare, rk4_step
 
@@ -28,13 +28,14 @@ def main():
     ap.add_argument("--numpy-calls", type=int, default=2000)
     args = ap.parse_args()
     rec = datasets.load("SD1")
-    pops = np.asarray(TABLE4.to_physical(jax.random.uniform(jax.random.PRNGKey(0), (8, 70, 7))))
+    box = DC().parameters("table4")
+    pops = np.asarray(box.lower + jax.random.uniform(jax.random.PRNGKey(0), (8, 70, 7)) * (box.upper - box.lower))
     print(f"machine: {platform.processor() or platform.machine()}, jax {jax.__version__}, devices {jax.devices()}")
     print(f"work: {args.calls} x 70 = {args.calls * 70:,} RK4 simulations of SD1 ({len(rec)} samples)")
     results = {}
     for unroll in (1, 2):
         prob = make_problem(rec, unroll=unroll)
-        f = jax.jit(lambda x, prob=prob: objective(Params.from_array(x), prob))
+        f = jax.jit(lambda x, prob=prob: objective(x, prob))
         t0 = time.perf_counter()
         f(jnp.asarray(pops[0])).block_until_ready()
         compile_s = time.perf_counter() - t0
@@ -79,7 +80,7 @@ def main():
 
     times = {}
     for label, fn in (("general (per-step h)", objective), ("constant h", objective_const_h)):
-        f = jax.jit(lambda x, fn=fn: fn(Params.from_array(x), prob))
+        f = jax.jit(lambda x, fn=fn: fn(x, prob))
         f(jnp.asarray(pops[0])).block_until_ready()
         best = np.inf
         for _ in range(3):
@@ -93,7 +94,7 @@ def main():
     print(f"general / constant-h: {times['general (per-step h)'] / times['constant h']:.3f}")
     # Agreement of the two implementations on the same populations.
     prob = make_problem(rec)
-    a = np.asarray(objective(Params.from_array(pops[0]), prob))
+    a = np.asarray(objective(pops[0], prob))
     b = objective_numpy(pops[0], rec.t, rec.u_a, rec.i_a, rec.omega)
     fin = np.isfinite(b)
     print(f"max relative OF difference JAX vs NumPy: {np.max(np.abs(a[fin] - b[fin]) / b[fin]):.2e}")

@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import dcjax
-from dcjax import datasets, load_csv
-from dcjax.fitting.fit import INTEGRATORS, MEMORIES
+from dcjax import INTEGRATORS, MEMORIES, datasets, load_csv
 from dcjax.io.datasets import DATA_DIR
 from dcjax.io.emulate import LAB_EFFECTS, Effects, emulate, md_settings
 

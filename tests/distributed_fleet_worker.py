@@ -13,8 +13,8 @@ if n_proc > 1:
 
 import numpy as np  # noqa: E402
 
-from dcjax import PARAM_NAMES, Recording, datasets  # noqa: E402
-from dcjax.fitting.fleet import identify_fleet  # noqa: E402
+from dcjax import Recording, datasets  # noqa: E402
+from dcjax.compat import PARAM_NAMES, identify_fleet  # noqa: E402
 from dcjax.io.reference import simulate_numpy  # noqa: E402
 
 truth = np.array([datasets.true_params("SD1")[p] for p in PARAM_NAMES])

@@ -6,6 +6,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 
 def _fit(tmp_path, out, **env):
     env = {**{k: v for k, v in os.environ.items() if k != "DCJAX_NO_CACHE"}, **env}
@@ -14,6 +16,7 @@ def _fit(tmp_path, out, **env):
     return json.loads((tmp_path / out / "result.json").read_text())
 
 
+@pytest.mark.slow
 def test_second_identical_fit_compiles_from_the_cache(tmp_path):
     cache = tmp_path / "cache"
     first = _fit(tmp_path, "a", DCJAX_CACHE_DIR=str(cache))
@@ -24,6 +27,7 @@ def test_second_identical_fit_compiles_from_the_cache(tmp_path):
     assert second["timing"]["compile_s"] < 0.5 * first["timing"]["compile_s"], (first["timing"], second["timing"])
 
 
+@pytest.mark.slow
 def test_cache_can_be_turned_off(tmp_path):
     cache = tmp_path / "cache"
     _fit(tmp_path, "a", DCJAX_CACHE_DIR=str(cache), DCJAX_NO_CACHE="1")

@@ -50,6 +50,7 @@ def test_design_respects_range_hold_and_current_limit():
     assert len(d.levels) == -(-len(u) // per)
 
 
+@pytest.mark.slow
 def test_design_beats_the_papers_step_in_the_prediction():
     d = design_input("dc", SD1, duration=0.05, dt=1e-4, u_range=(0.0, 220.0), hold=2.5e-3, **FAST)
     step = evaluate_input(d, "dc", np.full_like(d.recording.t, 220.0))
@@ -58,6 +59,7 @@ def test_design_beats_the_papers_step_in_the_prediction():
     assert d.unidentifiable == []
 
 
+@pytest.mark.slow
 def test_design_against_baselines_never_worse_and_checks_their_grid():
     t = np.arange(201) * 1e-4
     coast = np.where(t < 0.008, 220.0, 0.0)
@@ -106,6 +108,7 @@ def test_design_errors_are_clear(kw, match):
         design_input("dc", SD1, **args)
 
 
+@pytest.mark.slow
 def test_cli_design_writes_the_three_files(tmp_path, capsys):
     assert cli.main(["fit", "SD1", "--runs", "2", "--budget", "14000", "--out", str(tmp_path / "fit")]) == 0
     args = ["design", str(tmp_path / "fit" / "result.json"), "--duration", "0.05", "--dt", "1e-4", "--umin", "0", "--umax", "220"]

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcjax import Params, Recording, load_csv, make_problem, objective, simulate
+from dcjax import Recording, load_csv, make_problem, objective, simulate
 from dcjax.analysis.validation import cross_validation, stationary_check, stationary_instants
+from dcjax.compat import Params
 from dcjax.io.emulate import MOTOR, DriveSettings, Effects, emulate, emulate_trace, md_settings
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, Recording, datasets, identify
-from dcjax.fitting.fleet import identify_fleet
+from dcjax import Recording, datasets
+from dcjax.compat import PARAM_NAMES, identify, identify_fleet
 from dcjax.io.reference import simulate_numpy
 
 CODE = """
 import json, numpy as np, sys
 sys.path.insert(0, {tests!r})
 from test_fleet import fleet_recordings
-from dcjax.fitting.fleet import identify_fleet
+from dcjax.compat import identify_fleet
 r = identify_fleet(fleet_recordings(5), budget=2100, runs=1, seed=3)
 print(json.dumps({{"x": r.params.tolist(), "of": r.of.tolist(), "dev": r.timing["devices"]}}))
 """
@@ -39,6 +39,7 @@ def fleet_recordings(m, seed=0, n=201):
     ]
 
 
+@pytest.mark.slow
 def test_sharded_fleet_equals_single_device():
     outs = {}
     for n in (1, 4):
@@ -73,6 +74,7 @@ def test_fleet_bad_input():
         identify_fleet([])
 
 
+@pytest.mark.slow
 def test_fleet_across_two_processes_equals_one_process():
     """jax.distributed with two local CPU processes (gloo collectives): the motors are split over
     both processes' devices and every process gets the whole, identical result."""

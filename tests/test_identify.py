@@ -10,8 +10,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, TABLE4, datasets, identify, make_problem
+from dcjax import datasets, make_problem
 from dcjax.cli import main
+from dcjax.compat import PARAM_NAMES, TABLE4, identify
 from dcjax.fitting.polish import polish_jit
 from dcjax.strategies import DERand1Exp
 
@@ -31,6 +32,7 @@ def test_de_rand_1_exp_recovers_sd_parameters(name):
     assert np.all(r.fes == 140_000)
 
 
+@pytest.mark.slow
 def test_table5_ranking_on_sd1():
     """DE/rand/1/exp best, GA worst (2 runs each, full budget)."""
     means = {
@@ -55,6 +57,7 @@ def test_same_seed_same_result_different_seed_different(sd1):
     assert len(set(a.run_of.tolist())) == 3, "runs of one call must differ"
 
 
+@pytest.mark.slow
 def test_sharded_runs_equal_single_device(tmp_path):
     """The same call with 1 and 2 XLA CPU devices gives identical results (3 runs: padded)."""
     code = (
@@ -97,6 +100,7 @@ def test_polish_improves_and_keeps_bounds(sd1, sd1_true):
     assert TABLE4.contains(np.asarray(r2.x)) and float(r2.of_after) <= float(r2.of_before)
 
 
+@pytest.mark.slow
 def test_identify_polish_flag(sd1):
     r = identify(sd1, method="ga", runs=2, budget=1400, seed=0, polish=True)
     assert np.all(np.asarray(r.polish["of_after"]) <= np.asarray(r.polish["of_before"]))
@@ -159,6 +163,7 @@ def test_cli_module_entry_bad_file(tmp_path):
     assert p.returncode != 0 and "all zero" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs Linux /proc")
 def test_repeated_identify_does_not_accumulate_memory_mappings(sd1, monkeypatch):
     """Each compiled executable holds memory mappings; a long sweep of `identify` calls must not
@@ -167,7 +172,7 @@ def test_repeated_identify_does_not_accumulate_memory_mappings(sd1, monkeypatch)
     def maps():
         return sum(1 for _ in open("/proc/self/maps"))
 
-    cache = sys.modules["dcjax.fitting.identify"].EXECUTABLES
+    cache = sys.modules["dcjax.fitting.engine"].EXECUTABLES
     cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
     monkeypatch.setattr(cache, "size", 2)  # fills after two calls: four more show whether evicted ones are freed
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
@@ -179,6 +184,7 @@ def test_repeated_identify_does_not_accumulate_memory_mappings(sd1, monkeypatch)
     assert counts[-1] - counts[full] < 600, counts  # were the executables kept: ~450 more per call
 
 
+@pytest.mark.slow
 def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
     """Chunked runs (progress) give the same bits as one compiled run, memory or not; the CLI's
     --progress draws a bar on stderr."""
@@ -190,7 +196,7 @@ def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         np.testing.assert_array_equal(a.history, b.history)
         assert seen == sorted(seen) and seen[-1] == 1.0 and (memory is not None or len(seen) >= 10)
-        assert not sys.modules["dcjax.fitting.identify"]._METERS  # a meter lives for its call only
+        assert not sys.modules["dcjax.fitting.engine"]._METERS  # a meter lives for its call only
     assert main(["fit", "SD1", "--runs", "1", "--budget", "1400", "--progress", "--out", str(tmp_path)]) == 0
     assert "iterations (all runs)" in capsys.readouterr().err
 

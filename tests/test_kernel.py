@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import dcjax
-from dcjax import TABLE4, TABLE8, Recording, datasets, identify, make_problem, objective, simulate
+from dcjax import Recording, datasets, make_problem, objective, simulate
+from dcjax.compat import TABLE4, TABLE8, identify
 from dcjax.simulation.kernel import objective_kernel_jit, simulate_kernel_jit
 
 
@@ -54,6 +55,7 @@ def test_kernel_non_uniform_steps_and_a_custom_model():
     _agree(simulate_kernel_jit(x, prob, interpret=True, block=8), simulate(x, prob))
 
 
+@pytest.mark.slow
 def test_identify_through_the_kernel_equals_the_scan(sd1, monkeypatch):
     a = identify(sd1, runs=2, budget=350, seed=3)
     monkeypatch.setenv("DCJAX_KERNEL", "interpret")

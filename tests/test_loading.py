@@ -91,6 +91,7 @@ def test_loading_errors_are_clear(tmp_path, sd1, kw, match):
         load_recording(f, **kw)
 
 
+@pytest.mark.slow
 def test_daq_sd1_fits_like_sd1_and_the_commands_work(tmp_path, capsys):
     """Issue 13's acceptance: the DAQ rewrite of SD1 fitted with --columns/--units gives SD1's
     parameters within 1e-9; then report, validate and simulate on the saved result."""

@@ -6,13 +6,23 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dcjax import TABLE4, TABLE8, Params, identify, make_problem, objective
-from dcjax.models.precision import TABLE29, load_torque_precision, unit_precision
+from dcjax import make_problem, objective
+from dcjax.compat import TABLE4, TABLE8, Params, identify
+from dcjax.models.dc import TABLE29, load_torque_precision
+from dcjax.models.precision import unit_precision
 from dcjax.strategies import make_strategy, run
 from dcjax.strategies.compact import bucket_sizes, compacted
-from dcjax.strategies.memory import MEMORY_KINDS, Memory
+from dcjax.strategies.memory import LTMA, MEMORIES, Records
+
+MEMORY_KINDS = tuple(MEMORIES)
 
 PREC = jnp.asarray(unit_precision(TABLE29, TABLE4))
+
+
+def _mem(kind, chunk):
+    """The memory of `kind` with LTMA's history searched in chunks of `chunk`."""
+    m = MEMORIES[kind]
+    return LTMA(order=m.order, chunk=chunk) if isinstance(m, LTMA) else m
 
 
 @pytest.fixture(scope="module")
@@ -26,6 +36,7 @@ def _run(fn, memory, precision=PREC, budget=2800, method="de-rand-1-exp", seed=0
     return jax.jit(lambda k: run(s, k, fn, budget, 7, memory=memory, precision=precision, **kw))(jax.random.PRNGKey(seed))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("memory", MEMORY_KINDS)
 def test_precision_zero_gives_the_memory_free_path(sd1_fn, memory):
     off = _run(sd1_fn, None)
@@ -81,6 +92,7 @@ def test_compacted_skips_work_and_matches_fn():
         assert sum(rows) == expected, (k, rows)
 
 
+@pytest.mark.slow
 def test_compacted_batches_across_runs():
     """Under vmap (and nested vmap) the active rows of all runs are evaluated together."""
     rows = []
@@ -95,6 +107,7 @@ def test_compacted_batches_across_runs():
     assert sum(rows) == min(s for s in bucket_sizes(560) if s >= a.sum())
 
 
+@pytest.mark.slow
 def test_forced_duplicate_is_not_simulated():
     """Candidates equal to the stored population are answered from memory: no row is simulated
     and no FE is spent; a perturbed candidate (beyond precision) is simulated."""
@@ -105,7 +118,7 @@ def test_forced_duplicate_is_not_simulated():
     pop = jax.random.uniform(jax.random.PRNGKey(0), (70, 7))
     fit = jnp.sum(pop**2, axis=-1)
     for kind in MEMORY_KINDS:
-        mem = Memory.create(kind, jnp.full(7, 1e-3), pop, fit, jnp.ones(70, bool), capacity=1000)
+        mem = MEMORIES[kind].create(jnp.full(7, 1e-3), pop, fit, jnp.ones(70, bool), capacity=1000)
         state = State(pop, fit, pop[0], jnp.asarray(jnp.inf), jnp.asarray(70), None, jnp.asarray(0), mem)
         # within precision of its own record (the hash's test is the same cell: an exact repeat)
         z = pop + (0.0 if kind == "ltma-hash" else 1e-4)
@@ -133,9 +146,9 @@ def test_s1_and_s2_find_the_same_duplicates():
     cand = cand.at[2].set(recs[10] + 1e-4)
     out = {}
     for kind in ("ltma-s1", "ltma-s2"):
-        m = Memory.create(kind, jnp.full(7, 1e-3), recs[:70], jnp.arange(70.0), jnp.ones(70, bool), 4000, chunk=256)
+        m = _mem(kind, 256).create(jnp.full(7, 1e-3), recs[:70], jnp.arange(70.0), jnp.ones(70, bool), 4000)
         m = m.add(recs[70:], jnp.arange(70, 3000.0), jnp.ones(2930, bool))
-        found, x, f, m2 = jax.jit(Memory.lookup)(m, cand)
+        found, x, f, m2 = jax.jit(Records.lookup)(m, cand)
         out[kind] = (np.asarray(found), np.asarray(f), int(m2.chunks))
     np.testing.assert_array_equal(out["ltma-s1"][0], out["ltma-s2"][0])
     n_copies = 3000 // 97 + 1
@@ -150,9 +163,9 @@ def test_s2_stops_early_on_recent_duplicates():
     recs = jax.random.uniform(jax.random.PRNGKey(6), (3000, 7))
     chunks = {}
     for kind in ("ltma-s1", "ltma-s2"):
-        m = Memory.create(kind, jnp.full(7, 1e-3), recs[:70], jnp.zeros(70), jnp.ones(70, bool), 4000, chunk=256)
+        m = _mem(kind, 256).create(jnp.full(7, 1e-3), recs[:70], jnp.zeros(70), jnp.ones(70, bool), 4000)
         m = m.add(recs[70:], jnp.zeros(2930), jnp.ones(2930, bool))
-        found, x, _, m2 = jax.jit(Memory.lookup)(m, recs[-70:] + 1e-5)
+        found, x, _, m2 = jax.jit(Records.lookup)(m, recs[-70:] + 1e-5)
         assert np.all(np.asarray(found)) and np.array_equal(np.asarray(x), np.asarray(recs[-70:]))
         chunks[kind] = int(m2.chunks)
     assert chunks == {"ltma-s1": 12, "ltma-s2": 1}
@@ -160,7 +173,7 @@ def test_s2_stops_early_on_recent_duplicates():
 
 def test_ltma_capacity_drops_overflow():
     pop = jnp.zeros((4, 7))
-    m = Memory.create("ltma-s1", jnp.zeros(7), pop, jnp.zeros(4), jnp.ones(4, bool), capacity=6, chunk=4)
+    m = LTMA(order="oldest", chunk=4).create(jnp.zeros(7), pop, jnp.zeros(4), jnp.ones(4, bool), capacity=6)
     m = m.add(jnp.ones((4, 7)), jnp.ones(4), jnp.ones(4, bool))
     assert int(m.n) == 6 and m.x.shape == (6, 7)
 
@@ -213,6 +226,7 @@ def test_table29_rule_and_unit_precision():
     np.testing.assert_allclose(u * np.asarray(TABLE8.upper - TABLE8.lower), TABLE29)
 
 
+@pytest.mark.slow
 def test_cli_memory(tmp_path, capsys):
     import json
     from pathlib import Path
@@ -236,11 +250,11 @@ def test_cli_rejects_unknown_memory():
 
 
 def test_hash_memory_finds_the_same_cell_only():
-    from dcjax.strategies.memory import HashMemory
+    from dcjax.strategies.memory import HashRecords
 
     prec = jnp.full(7, 0.1)
     rec = jnp.full((1, 7), 0.55)
-    m = HashMemory.create(prec, rec, jnp.asarray([3.0]), jnp.ones(1, bool), capacity=10)
+    m = HashRecords.create(prec, rec, jnp.asarray([3.0]), jnp.ones(1, bool), capacity=10)
     same, other = jnp.full(7, 0.51), jnp.full(7, 0.55).at[3].set(0.61)  # same cell / next cell in one parameter
     found, x, f, m = m.lookup(jnp.stack([same, other]))
     assert found.tolist() == [True, False] and float(f[0]) == 3.0 and np.array_equal(x[0], rec[0])
@@ -251,6 +265,7 @@ def test_hash_memory_finds_the_same_cell_only():
     assert bool(found[0]) and float(f[0]) == 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("memory", [None, "stma", "ltma-s2", "ltma-hash"])
 def test_run_batch_equals_separate_runs(sd1_fn, memory):
     """`run_batch` (one loop over all runs, finished runs masked) gives each run's own result."""
@@ -262,7 +277,8 @@ def test_run_batch_equals_separate_runs(sd1_fn, memory):
     kw = dict(memory=memory, precision=prec)  # with memory, runs end at different iterations (budget)
     budgets = 1050
     batch = jax.jit(lambda k: run_batch(s, k, sd1_fn, budgets, 7, **kw))(keys)
+    one_run = jax.jit(lambda k: run(s, k, sd1_fn, budgets, 7, **kw))  # compiled once, called per run
     for r in range(3):
-        one = jax.jit(lambda k: run(s, k, sd1_fn, budgets, 7, **kw))(keys[r])
+        one = one_run(keys[r])
         for field in ("best_x", "best_f", "fes", "iterations", "history", "dups"):
             np.testing.assert_array_equal(getattr(batch, field)[r], getattr(one, field), err_msg=field)

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import dcjax
-from dcjax import DC, DCCoulomb, Model, Recording, datasets, get_model, identify, make_problem, objective
+from dcjax import DC, DCCoulomb, Model, Recording, datasets, get_model, make_problem, objective
 from dcjax.cli import main
+from dcjax.compat import identify
 
 SD1 = datasets.true_params("SD1")
 
@@ -88,6 +89,7 @@ def test_series_model_simulates_like_an_independent_numpy_rk4():
     assert float(objective(SERIES_TRUE, prob)) < 1e-26
 
 
+@pytest.mark.slow
 def test_series_model_end_to_end_de_polish_uncertainty():
     rec = series_recording()
     r = identify(rec, model=SeriesWound(), runs=2, budget=42_000, seed=0, polish=True)
@@ -116,6 +118,7 @@ def coulomb_reversal(w_eps=0.5):
     return Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], name="reversal")
 
 
+@pytest.mark.slow
 def test_coulomb_model_recovers_friction_on_a_reversing_drive_and_dc_does_not():
     rec = coulomb_reversal()
     assert rec.omega.min() < -50 < 50 < rec.omega.max()  # it really reverses
@@ -192,6 +195,7 @@ def test_per_name_bounds_override_the_preset(sd1):
     assert 40.0 <= r.params["Ra"] <= 45.0
 
 
+@pytest.mark.slow
 def test_cli_fix_bound_model_and_import_path(tmp_path, capsys):
     out = tmp_path / "fix"
     sd1_csv = str(datasets.DATA_DIR / "SD1.csv")
@@ -247,6 +251,7 @@ def test_cli_parameter_errors_are_one_line(args, match, capsys, tmp_path):
     assert match in err and err.count("\n") == 1 and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_import_changes_no_xla_flags():
     code = "import os; a = os.environ.get('XLA_FLAGS'); import dcjax; assert os.environ.get('XLA_FLAGS') == a; print(len(__import__('jax').devices()))"
     env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}

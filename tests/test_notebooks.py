@@ -20,6 +20,7 @@ def test_there_are_notebooks():
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_runs(path, tmp_path, monkeypatch):
     if path.name == "real_benchmark_emps.ipynb":  # it asserts IDIM-LS within 1 % and Fv, Fc, offset within 5 %

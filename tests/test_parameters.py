@@ -113,6 +113,7 @@ def _same_runs(a, b):
     np.testing.assert_array_equal(a.run_params, b.run_params)
 
 
+@pytest.mark.slow
 def test_cli_flags_reach_fit_with_the_bits_of_identify(tmp_path, capsys):
     flags = ["--runs", "2", "--budget", "1400", "--seed", "4", "--bounds", "table4", "--bound", "Ra=10:60", "--fix", "Tlc=8.55e-8",
              "--x0", "Ra=40", "--memory", "ltma-s2", "--precision", "Ra=1e-4", "--weights", "1,0.5", "--generations", "12",

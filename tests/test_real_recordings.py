@@ -184,6 +184,7 @@ def test_fit_each_fails_a_dead_sensor_alone():
     assert [r["status"] for r in rows] == ["ok", "failed", "ok", "failed"]
 
 
+@pytest.mark.slow
 def test_cli_each_writes_one_row_per_file(tmp_path, capsys):
     (tmp_path / "corrupt.csv").write_text("t,u_a,i_a,omega\n0,1,2\nnot a number\n")
     files = [f"data/{n}.csv" for n in ("SD1", "SD2", "SD3", "SD4")] + [str(tmp_path / "corrupt.csv")]
@@ -223,6 +224,7 @@ def test_fit_with_parameters_equals_identify(sd1):
     assert d["params"] == a.params and d["statistics"]["nvarys"] == 6
 
 
+@pytest.mark.slow
 def test_fit_typed_options(sd1):
     e = dcjax.fit(sd1, params="table4", integrator=dcjax.Euler(substeps=3), runs=1, budget=1400)
     assert (e.settings["integrator"], e.settings["nd"]) == ("euler", 3)

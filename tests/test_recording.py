@@ -8,19 +8,15 @@ import numpy as np
 import pytest
 
 from dcjax import (
-    PARAM_NAMES,
-    TABLE4,
-    TABLE8,
     Bounds,
     Recording,
-    bounds_preset,
     datasets,
-    identify,
     load_csv,
     make_problem,
     save_csv,
     trim_switch_on,
 )
+from dcjax.compat import PARAM_NAMES, TABLE4, TABLE8, bounds_preset, identify
 
 ROOT = Path(__file__).resolve().parent.parent
 

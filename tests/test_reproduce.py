@@ -97,6 +97,7 @@ def _start_reproduce(tmp, *extra) -> subprocess.Popen:
     return subprocess.Popen(_command(tmp, *extra), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
+@pytest.mark.slow
 def test_smoke_profile_end_to_end(tmp_path):
     out = _reproduce(tmp_path)
     assert out.returncode == 0, out.stderr[-3000:]
@@ -129,6 +130,7 @@ def uninterrupted(tmp_path_factory):
     return ref
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_interrupted_reproduction_resumes_to_the_same_report(tmp_path, sig, uninterrupted):
     proc = _start_reproduce(tmp_path, SMALL, "pause_s=5")  # 5 s before each cell: the kill lands in the second

@@ -8,11 +8,11 @@ import pytest
 import scipy.linalg
 
 import dcjax
-from dcjax import Params, Recording, make_problem, objective, simulate
+from dcjax import RK4, Recording, make_problem, objective, simulate
+from dcjax.compat import Params
 from dcjax.io.reference import simulate_numpy
 from dcjax.models import DC
 from dcjax.models.dc import Coefficients, derivatives, vector_field
-from dcjax.simulation.integrate import rk4_step
 
 SD1 = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
 
@@ -99,12 +99,12 @@ def test_matches_numpy_reference(integrator, nd):
 
 
 def test_nd1_is_the_plain_integrator(sd1, sd1_true):
-    """ND = 1 equals stepping rk4_step once per sample interval (bit for bit)."""
+    """ND = 1 equals stepping `RK4.step` once per sample interval (bit for bit)."""
     model = DC()
     k = Coefficients.from_params(sd1_true)
     i, w = jnp.float64(0.0), jnp.float64(0.0)
     rows = [(i, w)]
-    step = jax.jit(lambda k, y, h, u0, uh, u1: rk4_step(model, k, y, h, (u0,), (uh,), (u1,)))
+    step = jax.jit(lambda k, y, h, u0, uh, u1: RK4().step(lambda u, y: model.vector_field(k, u, y), y, (u0,), (u1,), h))
     for n in range(1, len(sd1)):
         h = sd1.t[n] - sd1.t[n - 1]
         i, w = step(k, (i, w), h, sd1.u_a[n - 1], 0.5 * (sd1.u_a[n - 1] + sd1.u_a[n]), sd1.u_a[n])

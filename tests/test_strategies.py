@@ -5,7 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from dcjax import TABLE4, Params, make_problem, objective
+from dcjax import make_problem, objective
+from dcjax.compat import TABLE4, Params
 from dcjax.strategies import DEBest1Bin, Evosax, State, make_strategy, run
 from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate, index_below
 from dcjax.strategies.de import binomial_crossover, exponential_crossover
@@ -23,6 +24,7 @@ def _run(method, fn, budget, seed=0, **kw):
     return jax.jit(lambda k: run(s, k, fn, budget, 7))(jax.random.PRNGKey(seed))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_improves_on_convex_function(method):
     out = _run(method, sphere, 7000)
@@ -38,6 +40,7 @@ def sd1_fn(sd1):
     return lambda z: objective(Params.from_array(TABLE4.to_physical(z)), prob)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_improves_on_sd1(method, sd1_fn):
     init_best = float(_run(method, sd1_fn, 70).best_f)
@@ -47,6 +50,7 @@ def test_improves_on_sd1(method, sd1_fn):
     assert np.all((x >= 0) & (x <= 1))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("budget", [140_000, 10_001])
 def test_fe_accounting(budget):
     out = {m: _run(m, sphere, budget) for m in METHODS}
@@ -85,14 +89,16 @@ def test_non_finite_never_selected(method):
     assert np.isfinite(float(out.best_f)) and x[0] >= 0.5 and x[1] >= 0.3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["de-rand-1-exp", "abc"])
 def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):
     s = make_strategy(method)
     keys = jax.random.split(jax.random.PRNGKey(7), 3)
     f = lambda k: run(s, k, sd1_fn, 1400, 7)
     batched = jax.jit(jax.vmap(f))(keys)
+    single_run = jax.jit(f)  # compiled once, called per run
     for r in range(3):
-        single = jax.jit(f)(keys[r])
+        single = single_run(keys[r])
         np.testing.assert_allclose(batched.best_f[r], single.best_f, rtol=1e-12)
         np.testing.assert_allclose(batched.best_x[r], single.best_x, rtol=1e-12)
         assert int(batched.fes[r]) == int(single.fes)
@@ -164,6 +170,7 @@ def test_evosax_adapter(name):
     assert np.all((x >= 0) & (x <= 1))
 
 
+@pytest.mark.slow
 def test_evosax_de_cross_checks_de_best_1_bin():
     """evosax's DifferentialEvolution with elitism is DE/best/1/bin; with F = 0.6, CR = 0.8 both
     implementations reach the sphere's optimum to a similar accuracy (median of 4 seeds)."""

@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from dcjax import PARAM_NAMES, TABLE4, Recording, datasets, identify, make_problem
+from dcjax import Recording, datasets, make_problem
 from dcjax.analysis.uncertainty import NOT, WELL, profile, uncertainty
+from dcjax.compat import PARAM_NAMES, TABLE4, identify
 from dcjax.fitting.polish import polish_jit
 from dcjax.io.reference import simulate_numpy
 
@@ -21,6 +22,7 @@ def _noisy_sd1(seed, sigma_i=0.01, sigma_w=1.0, n=None):
     return Recording(t=rec.t[:m], u_a=rec.u_a[:m], i_a=i, omega=w, name=f"noisy{seed}")
 
 
+@pytest.mark.slow
 def test_intervals_cover_truth_at_about_the_stated_rate():
     """Noiseless SD1 + Gaussian noise, fitted by LM from the truth: the 95 % intervals of the
     well-determined parameters cover the true values in about 95 % of 40 seeds. The noise std on
@@ -101,6 +103,7 @@ def test_joint_fit_recovers_shared_parameters():
         identify(recs, joint_weights=[1, 1])
 
 
+@pytest.mark.slow
 def test_nd_auto_picks_the_first_nd_within_tolerance_of_a_diffrax_reference():
     """RK4 on SD1: at the ND = 1 fit the simulation error against the adaptive reference falls by
     ~16 per doubling (4th order); with tol 1e-9 the first ND below it is chosen and refitted."""

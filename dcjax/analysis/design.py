@@ -34,6 +34,7 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import Model, get_model
+from ..simulation.integrators import RK4
 from ..simulation.objectives import simulate
 from ..simulation.problem import Problem, make_problem
 
@@ -71,7 +72,7 @@ def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u: n
         chans[s] = np.zeros_like(t)
         chans[s][-1] = 1.0
     rec = Recording(t=t, channels=chans, limit=i_limit)
-    prob = make_problem(rec, model=model, integrator="rk4", nd=2, i_limit=i_limit)
+    prob = make_problem(rec, RK4(substeps=2), model=model)
     x = jnp.asarray([params[n] for n in model.names])
     sim = simulate(x, prob)
     return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])
@@ -139,6 +140,7 @@ def design_input(
     dt: float,
     u_range: tuple[float, float],
     hold: float | None = None,
+    limit: float | None = None,
     i_limit: float | None = None,
     criterion: str = "d",
     noise: dict[str, float] | None = None,
@@ -151,7 +153,7 @@ def design_input(
 ) -> Design:
     """Design an input of `duration` s sampled every `dt` s, piecewise constant over `hold` s
     (default duration / 20), inside `u_range` = (u_min, u_max), for `model` at `params` (name ->
-    value; `fixed` names are known and not designed for), under the supply's `i_limit`.
+    value; `fixed` names are known and not designed for), under the supply's `limit`.
     `scale`: what "relative" means for a parameter (default its |value|; give one for a parameter
     fitted at 0, else it is left out).
     `criterion`: "d", "a" or comma-separated parameter names (module docstring). `noise`: sigma
@@ -169,7 +171,12 @@ def design_input(
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = jnp.asarray([scales[k] for k in free_names])
-    base = template_problem(m, params, t, np.full(n, hi), i_limit)  # a full step: its peaks set the default noise
+    if i_limit is not None:
+        from ..deprecation import warn_deprecated
+
+        warn_deprecated("design_input(i_limit=)", "design_input(limit=)")
+        limit = i_limit if limit is None else limit
+    base = template_problem(m, params, t, np.full(n, hi), limit)  # a full step: its peaks set the default noise
     sigma = _noise(m, base, noise)
     crit = criterion if criterion in ("d", "a") else "names"
     z0 = _starts(segments, starts, seed)
@@ -186,7 +193,7 @@ def design_input(
     k = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
     u = np.asarray(loss.profile(zs[k]))
     value = -float(fs[k]) if crit == "d" and reference is None else float(fs[k])
-    return summarize(m, params, t, u, i_limit, free_names, sigma, criterion, value, per * dt, {k: scales[k] for k in free_names})
+    return summarize(m, params, t, u, limit, free_names, sigma, criterion, value, per * dt, {k: scales[k] for k in free_names})
 
 
 def _grid(m: Model, params, duration, dt, u_range, hold) -> tuple[int, float, float, int]:

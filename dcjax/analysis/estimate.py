@@ -31,6 +31,7 @@ import numpy as np
 from ..io.recording import Recording
 from ..models import Model, get_model
 from ..models.parameters import Parameter, Parameters
+from ..simulation.integrators import RK4
 from ..simulation.objectives import objective
 from ..simulation.problem import make_problem
 
@@ -51,7 +52,7 @@ def _output_errors(recording: Recording, model: Model, xs: list[np.ndarray]) -> 
     x = np.array(xs, float)
     ok = np.all(np.isfinite(x), axis=1)
     x[~ok] = x[ok][0] if ok.any() else 1.0
-    f = np.asarray(_objective_jit(jnp.asarray(x), make_problem(recording, model=model, integrator="rk4", nd=2)))
+    f = np.asarray(_objective_jit(jnp.asarray(x), make_problem(recording, RK4(substeps=2), model=model)))
     return np.where(ok & np.isfinite(f), f, np.inf)
 
 

@@ -5,6 +5,7 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import Model, get_model
+from ..simulation.integrators import Integrator
 from ..simulation.objectives import objective
 from ..simulation.problem import make_problem
 
@@ -58,7 +59,7 @@ def stationary_check(params, recording: Recording, times=None, count: int = 5, m
 
 
 def cross_validation(
-    fits: dict, recordings: dict[str, Recording], integrator: str = "rk4", nd: int = 1, model: Model | str | None = None
+    fits: dict, recordings: dict[str, Recording], integrator: Integrator | None = None, model: Model | str | None = None
 ) -> tuple[list[str], list[str], np.ndarray]:
     """OF (eq. 24) of each recording simulated with the parameters fitted on each recording
     (Fig. 12): `M[r, f]` = OF of recording `r` with the fit of `f`; the diagonal is each fit on
@@ -68,7 +69,7 @@ def cross_validation(
     fit_names = list(fits)
     m = np.empty((len(rec_names), len(fit_names)))
     for a, rn in enumerate(rec_names):
-        prob = make_problem(recordings[rn], model=model, integrator=integrator, nd=nd)
+        prob = make_problem(recordings[rn], integrator, model=model)
         for b, fn in enumerate(fit_names):
             m[a, b] = float(objective(model.as_array(fits[fn]), prob))
     return rec_names, fit_names, m

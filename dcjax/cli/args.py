@@ -47,7 +47,14 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--window", default=None, help="keep T0:T1 (seconds)")
     g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
     g.add_argument("--trim", action="store_true", help="cut the samples before the armature is switched on")
-    g.add_argument("--i-limit", type=float, default=None, help="supply current limit (A)")
+    g.add_argument(
+        "--limit",
+        "--i-limit",
+        dest="limit",
+        type=float,
+        default=None,
+        help="the clamp on the limited state: a drive's supply current limit (A)",
+    )
     g.add_argument(
         "--scale", default=None, help="channel=factor pairs applied after --units, e.g. omega=322.67 (gear ratio / wheel radius)"
     )
@@ -56,7 +63,9 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from ..simulation.integrators import INTEGRATORS
     from ..strategies import METHODS
+    from ..strategies.memory import MEMORIES
     from ..version import __version__
 
     p = argparse.ArgumentParser(prog="dcjax", description="Motor and drive parameter identification (Jesenik et al. 2020).")
@@ -72,7 +81,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     f.add_argument("--model", default="dc", help="dc (default), dc-coulomb, package.module:attr or path/to/file.py:Name")
     f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
-    f.add_argument("--integrator", default="rk4", choices=["euler", "rk4"])
+    f.add_argument("--integrator", default="rk4", choices=list(INTEGRATORS))
     f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
     f.add_argument("--runs", type=int, default=50)
     f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
@@ -94,7 +103,7 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument(
         "--memory",
         default=None,
-        choices=["stma", "ltma-s1", "ltma-s2", "ltma-hash"],
+        choices=list(MEMORIES),
         help="memory assistance (Section 4.4; ltma-hash: indexed)",
     )
     f.add_argument("--precision", default=None, help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)")
@@ -124,7 +133,9 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--umin", type=float, required=True, help="lowest input level (V)")
     d.add_argument("--umax", type=float, required=True, help="highest input level (V)")
     d.add_argument("--hold", type=float, default=None, help="shortest time an input level is held (s; default duration/20)")
-    d.add_argument("--i-limit", type=float, default=None, help="supply current limit (A; default the fitted recording's)")
+    d.add_argument(
+        "--limit", "--i-limit", dest="limit", type=float, default=None, help="supply current limit (A; default the fitted recording's)"
+    )
     d.add_argument("--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. J,Tla,Tlb,Tlc")
     d.add_argument("--noise", default=None, help="noise std. dev. per channel, e.g. i_a=0.05,omega=0.5 (default: the fit's residuals, "
                    "or 1%% of each channel's peak under a full step where the fit left none)")  # fmt: skip

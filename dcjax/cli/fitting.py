@@ -29,7 +29,7 @@ def _load(data: str, args, model):
         delimiter=args.delimiter,
         decimal=args.decimal,
         model=model,
-        i_limit=args.i_limit,
+        limit=args.limit,
         window=args.window,
         every=args.every,
         trim=args.trim,
@@ -70,7 +70,8 @@ def _bounds(args, model, rec):
 
 def _options(args, model) -> dict:
     """The `dcjax.fit` options every file of this command shares (the parameters are per file)."""
-    from ..fitting.fit import INTEGRATORS, MEMORIES, AutoSubsteps
+    from ..simulation.integrators import INTEGRATORS, AutoSubsteps
+    from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
     step = INTEGRATORS[args.integrator]
@@ -91,11 +92,11 @@ def _precision(args, model) -> dict[str, float]:
 
 
 def _prepared(rec, args, model):
-    """The recording as the flags ask: --i-limit (also on an embedded data set), --weights."""
-    from ..fitting.fit import with_weights
+    """The recording as the flags ask: --limit (also on an embedded data set), --weights."""
+    from ..fitting.engine import with_weights
 
-    if args.i_limit is not None and rec.limit != args.i_limit:
-        rec = rec.replace(limit=args.i_limit)
+    if args.limit is not None and rec.limit != args.limit:
+        rec = rec.replace(limit=args.limit)
     if args.weights is not None:
         rec = with_weights(rec, dict(zip(model.outputs, _floats(args.weights, "--weights", len(model.outputs)))))
     return rec
@@ -231,7 +232,8 @@ def fit_each_cmd(args, model, options) -> int:
     """`dcjax fit --each`: one fit per file (`dcjax.fitting.fit_each`: the files of one length in
     one compiled call); a file that fails to load, validate or fit is reported and the others are
     fitted."""
-    from ..fitting.each import FailedFit, _check, fit_each, summary_rows, write_summary
+    from ..fitting.each import FailedFit, fit_each, summary_rows, write_summary
+    from ..simulation.problem import make_problem
 
     out = Path(args.out)
     results: list = [None] * len(args.data)
@@ -240,7 +242,7 @@ def fit_each_cmd(args, model, options) -> int:
         label = Path(data).stem if Path(data).exists() else data
         try:
             rec = _prepared(_load(data, args, model), args, model)
-            _check(rec, model, {})  # what a fit would refuse, before the first estimate of --bounds auto
+            make_problem(rec, model=model)  # what a fit would refuse, before the first estimate of --bounds auto
             ready.append((k, rec, _file_params(args, model, rec)))
         except Exception as e:  # one broken file fails alone, whatever broke
             results[k] = FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data)

@@ -10,9 +10,9 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import get_model
-from ..models.parameters import Parameters
-from ..simulation.problem import make_problem
-from .result import IdentificationResult
+from ..simulation.integrators import AutoSubsteps, Integrator
+from ..strategies import Strategy
+from .result import FitResult
 
 OUTLIER_Z = 3.5  # modified z-score (Iglewicz & Hoaglin): 0.6745 |x - median| / MAD
 
@@ -27,33 +27,41 @@ class FailedFit:
     success: bool = False
 
 
-def _check(rec: Recording, model, options) -> None:
-    """What a fit would refuse about this recording alone (channels, a dead sensor, the limit)."""
-    make_problem(rec, model=model, nd=1, weights=options.get("weights"), i_limit=options.get("i_limit"))
-
-
 def fit_each(
     items: Sequence[Recording | str | Path],
     model=None,
     params=None,
-    method="de-rand-1-exp",
+    method: "str | Strategy" = "de-rand-1-exp",
     *,
     load: Callable[[str], Recording] | None = None,
-    **options,
-) -> list[IdentificationResult | FailedFit]:
-    """`dcjax.fitting.fit` on each recording on its own (not a joint fit), with the same options
-    (`integrator`, `runs`, `budget`, `generations`, `seed`, `memory`, `polish`, `progress`).
+    integrator=None,
+    runs: int = 50,
+    budget: int = 140_000,
+    generations: int | None = None,
+    seed: int = 0,
+    memory=None,
+    polish: bool = False,
+    progress=None,
+) -> list[FitResult | FailedFit]:
+    """`dcjax.fit` on each recording on its own (not a joint fit), with the same options.
 
     `items`: recordings, or paths loaded with `load` (default `dcjax.load_recording` with the
-    model). A recording that fails to load, validate or fit gets a `FailedFit` with its one-line
-    error and every other one is fitted. `params`: as `fit` takes it, for every recording, or a
-    list with one entry per item; None takes each recording's sidecar preset, else `"auto"`.
-    Recordings of one length (and channels, limit, weights, fixed parameters) are fitted in one
-    compiled call (`dcjax.fitting.batch.identify_each`: the same results as one fit each); with
-    `AutoSubsteps` or `progress` they are fitted one after another."""
+    model). A recording that fails to load, validate or prepare (its channels, a dead sensor, its
+    first estimate) gets a `FailedFit` with its one-line error and every other one is fitted.
+    `params`: as `fit` takes it, for every recording, or a list with one entry per item; None takes
+    each recording's sidecar preset, else `"auto"`. Recordings of one shape (length, channels,
+    limit, free parameters, weights) are fitted in one compiled call
+    (`dcjax.fitting.batch.fit_setups`: the same results as one fit each); with `AutoSubsteps` or
+    `progress` they are fitted one after another. An error of the batched call itself (not of one
+    recording) is raised."""
     from ..io.loading import load_recording
+    from .batch import fit_setups
+    from .engine import prepare, resolve_parameters
+    from .fit import check_integrator, fit, search_of
 
     m = get_model(model)
+    integ = check_integrator(integrator)
+    search = search_of(method, runs, budget, generations, seed, memory, polish)
     loader = load or (lambda p: load_recording(p, model=m))
     if isinstance(params, (list, tuple)):
         if len(params) != len(items):
@@ -62,66 +70,28 @@ def fit_each(
     else:
         each = [params] * len(items)
     out: list = [None] * len(items)
-    valid: list[tuple[int, Recording]] = []
+    setups: list = []
     for k, item in enumerate(items):
         name = item.name if isinstance(item, Recording) else Path(str(item)).stem
-        try:
+        source = None if isinstance(item, Recording) else str(item)
+        try:  # one broken recording fails alone, whatever broke in loading or preparing it
             rec = item if isinstance(item, Recording) else loader(str(item))
-            _check(rec, m, {})
-            valid.append((k, rec))
-        except Exception as e:  # one broken recording fails alone, whatever broke
-            out[k] = _failed(name, e, None if isinstance(item, Recording) else str(item))
-    batched = _fit_batched(valid, m, each, method, options)
-    for k, rec in valid:
-        out[k] = batched.get(k) if batched is not None else None
-        if out[k] is None:
-            out[k] = _fit_alone(rec, m, each[k], method, options, None if isinstance(items[k], Recording) else str(items[k]))
+            if isinstance(integ, AutoSubsteps) or progress:
+                out[k] = fit(rec, m, each[k], search.strategy, integrator=integ, runs=runs, budget=budget, generations=generations,
+                             seed=seed, memory=memory, polish=polish, progress=progress)  # fmt: skip
+                continue
+            assert isinstance(integ, Integrator)
+            setups.append((k, prepare([rec], m, resolve_parameters(each[k], [rec], m), integ)))
+        except Exception as e:
+            out[k] = _failed(name, e, source)
+    if setups:
+        for (k, _), res in zip(setups, fit_setups([s for _, s in setups], search)):
+            out[k] = res
     return out
 
 
 def _failed(name: str, e: Exception, source: str | None) -> FailedFit:
     return FailedFit(name=name, error=(str(e).splitlines() or [type(e).__name__])[0], source=source)
-
-
-def _fit_alone(rec, m, params, method, options, source):
-    from .fit import fit
-
-    try:
-        return fit(rec, m, params.copy() if isinstance(params, Parameters) else params, method, **options)
-    except Exception as e:
-        return _failed(rec.name, e, source)
-
-
-def _fit_batched(valid, m, each, method, options) -> dict | None:
-    """Index -> result of the recordings fitted together (`identify_each`), or None where the
-    options ask for one fit each (AutoSubsteps, progress, differing channel weights) or the
-    batch failed (then each recording is fitted alone, and fails alone)."""
-    from .batch import identify_each
-    from .fit import AutoSubsteps, channel_weights, engine_options, search_options
-
-    if not valid or isinstance(options.get("integrator"), AutoSubsteps) or options.get("progress"):
-        return None
-    opts = {k: options[k] for k in ("integrator", "memory", "polish", "runs", "budget", "seed", "generations") if k in options}
-    unknown = set(options) - set(opts) - {"progress"}
-    if unknown:
-        raise ValueError(f"fit_each: unknown option(s) {sorted(unknown)}")
-    try:
-        engine = engine_options(method, opts.get("integrator"), opts.get("memory"), opts.get("polish", False),
-                                opts.get("runs", 50), opts.get("budget", 140_000), opts.get("seed", 0), opts.get("generations"))  # fmt: skip
-        weights = {channel_weights([r], m) for _, r in valid}
-        if len(weights) != 1:
-            return None
-        search = [search_options(each[k].copy() if isinstance(each[k], Parameters) else each[k], [r], m) for k, r in valid]
-        shared = {k: search[0].get(k) for k in ("fixed", "precision")}
-        if any(s.get(k) != shared[k] for s in search for k in shared):
-            return None  # other fixed parameters or precisions: one fit each
-        results = identify_each(
-            [r for _, r in valid], bounds=[s["bounds"] for s in search], x0=[s.get("x0") for s in search],
-            weights=weights.pop(), model=m, **shared, **engine,
-        )  # fmt: skip
-    except Exception:
-        return None
-    return {k: res for (k, _), res in zip(valid, results)}
 
 
 def robust_outliers(values: np.ndarray, z: float = OUTLIER_Z) -> np.ndarray:
@@ -143,12 +113,12 @@ def robust_outliers(values: np.ndarray, z: float = OUTLIER_Z) -> np.ndarray:
     return flags
 
 
-def summary_rows(results: Sequence[IdentificationResult | FailedFit], model=None) -> list[dict]:
+def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[dict]:
     """One row per recording: status, error, OF, parameters, fit % per channel, at-bound
     parameters and the outlier flags (`robust_outliers` of the OF and of each free parameter)."""
     from ..analysis.report import channel_fit
 
-    m = get_model(model) if model is not None else next((r.model for r in results if isinstance(r, IdentificationResult)), get_model())
+    m = get_model(model) if model is not None else next((r.model for r in results if isinstance(r, FitResult)), get_model())
     rows = []
     for r in results:
         if isinstance(r, FailedFit):
@@ -162,7 +132,7 @@ def summary_rows(results: Sequence[IdentificationResult | FailedFit], model=None
         rows.append(row)
     ok = [k for k, row in enumerate(rows) if row["status"] == "ok"]
     flags = {k: [] for k in ok}
-    fixed = set().union(*(r.fixed for r in results if isinstance(r, IdentificationResult))) if ok else set()
+    fixed = set().union(*(r.fixed for r in results if isinstance(r, FitResult))) if ok else set()
     for col in ("of", *[n for n in m.names if n not in fixed]):
         bad = robust_outliers(np.array([rows[k][col] for k in ok]))
         for k, b in zip(ok, bad):
@@ -173,7 +143,7 @@ def summary_rows(results: Sequence[IdentificationResult | FailedFit], model=None
     return rows
 
 
-def _source(r: IdentificationResult) -> str:
+def _source(r: FitResult) -> str:
     data = r.settings.get("data") or [{}]
     return str(data[0].get("path", "")) if isinstance(data[0], dict) else ""
 

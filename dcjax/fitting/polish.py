@@ -17,6 +17,7 @@ class PolishResult(eqx.Module):
     of_before: Float[Array, ""]
     of_after: Float[Array, ""]
     steps: Array
+    converged: Array  # the solver met its tolerances (False: stopped at max_steps, or failed)
 
 
 def _to_free(z, eps):
@@ -43,7 +44,8 @@ def polish(
 
     Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
     (relative) of a bound is moved that far inside. The result is only accepted when its OF is
-    not larger than the start's; returns arrays only (no `optx.Solution`), so it vmaps."""
+    not larger than the start's; returns arrays only (no `optx.Solution`), so it vmaps.
+    `converged` is False where the solver stopped at `max_steps` or failed (`sol.result`)."""
     eps = 1e-12
     problems = problem if isinstance(problem, list) else [problem]
     jw = joint_weights or [1.0 / len(problems)] * len(problems)
@@ -61,7 +63,8 @@ def polish(
     of0 = of(x)
     of1 = of(x_new)
     better = of1 <= of0
-    return PolishResult(jnp.where(better, x_new, x), of0, jnp.where(better, of1, of0), sol.stats["num_steps"])
+    converged = sol.result == optx.RESULTS.successful
+    return PolishResult(jnp.where(better, x_new, x), of0, jnp.where(better, of1, of0), sol.stats["num_steps"], converged)
 
 
 polish_jit = eqx.filter_jit(polish)

@@ -14,6 +14,7 @@ from ..models import Model, get_model, model_spec
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space, make_space
+from ..simulation.integrators import Integrator, get_integrator
 from ..simulation.problem import make_problem
 
 if TYPE_CHECKING:
@@ -21,7 +22,7 @@ if TYPE_CHECKING:
 
 
 @dataclasses.dataclass
-class IdentificationResult:
+class FitResult:
     """Best parameters over all runs (`params`, a `Parameters`; `best_values`, name -> float),
     per-run results and their statistics."""
 
@@ -40,6 +41,7 @@ class IdentificationResult:
     recordings: list[Recording] = dataclasses.field(default_factory=list, repr=False)
     model: Model = dataclasses.field(default_factory=get_model, repr=False)
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)
+    integrator: Integrator | None = dataclasses.field(default=None, repr=False)  # None: from the settings
     _uncertainty: object = dataclasses.field(default=None, repr=False)
 
     @property
@@ -60,19 +62,25 @@ class IdentificationResult:
     def space(self) -> Space:
         return make_space(self.model, self.bounds, self.fixed)
 
+    def integrator_used(self) -> Integrator:
+        """The fitted integrator: the object itself, or (a loaded result) the one its settings name."""
+        if self.integrator is not None:
+            return self.integrator
+        return get_integrator(self.settings["integrator"], int(self.settings["nd"]))
+
     def problems(self, recordings=None):
-        """The settings' problems (integrator, ND, weights, limit) for `recordings` (default: the
-        fitted ones)."""
+        """The settings' problems (integrator, weights) for `recordings` (default: the fitted ones,
+        each with its own limit)."""
         s = self.settings
         recs = self.recordings if recordings is None else recordings
         if not recs:
             raise ValueError("no recording: the result was loaded without its data; pass a recording")
-        return [
-            make_problem(r, model=self.model, integrator=s["integrator"], nd=s["nd"], weights=tuple(s["weights"]), i_limit=s["i_limit"])
-            for r in recs
-        ]
+        if s.get("i_limit") is not None:  # a 0.1 result file: the limit was a setting
+            recs = [r.replace(limit=float(s["i_limit"])) for r in recs]
+        integ = self.integrator_used()
+        return [make_problem(r, integ, tuple(s["weights"]), model=self.model) for r in recs]
 
-    def uncertainty(self, profile: str | None = None, profile_points: int = 11) -> "IdentificationResult":
+    def uncertainty(self, profile: str | None = None, profile_points: int = 11) -> "FitResult":
         """A new result with standard errors, 95 % intervals, correlations and identifiability
         verdicts at the best parameters (`dcjax.analysis.uncertainty`; in `.uncertainties`, and as each
         parameter's `stderr` in `.parameters`); fixed parameters are known. With `profile="Tla"`
@@ -118,8 +126,13 @@ class IdentificationResult:
     # -- lmfit's vocabulary -------------------------------------------------------------------
     @property
     def success(self) -> bool:
-        """Every run ended with a finite objective."""
-        return bool(np.all(np.isfinite(self.run_of)))
+        """Every run ended with a finite objective and, with the polish, every polish converged
+        (a polish stopped at its step limit is not a success)."""
+        return bool(np.all(np.isfinite(self.run_of))) and not self._unconverged_polish()
+
+    def _unconverged_polish(self) -> int:
+        conv = (self.polish or {}).get("converged")
+        return 0 if conv is None else int(len(conv) - np.sum(conv))
 
     @property
     def message(self) -> str:
@@ -128,6 +141,11 @@ class IdentificationResult:
             return "no run found parameters whose simulation is finite"
         at = self.at_bound()
         text = f"{len(self.run_of) - bad}/{len(self.run_of)} runs finished with a finite objective"
+        if bad:
+            text += f" ({bad} ended non-finite)"
+        stopped = self._unconverged_polish()
+        if stopped:
+            text += f"; the polish of {stopped} run(s) stopped at its step limit or failed"
         return text + (f"; at a bound: {', '.join(at)}" if at else "")
 
     @property
@@ -189,7 +207,13 @@ class IdentificationResult:
             )  # fmt: skip
         return Parameters(out)
 
-    parameters = params  # the 0.2 pre-release name
+    @property
+    def parameters(self) -> Parameters:
+        """Deprecated: `params`."""
+        from ..deprecation import warn_deprecated
+
+        warn_deprecated("result.parameters", "result.params")
+        return self.params
 
     @property
     def mean_params(self) -> dict[str, float]:
@@ -277,10 +301,7 @@ class IdentificationResult:
         return self.report()
 
 
-FitResult = IdentificationResult  # the 0.2 name
-
-
-def load_result(path: str | Path, recordings: list[Recording] | None = None, model: Model | str | None = None) -> IdentificationResult:
+def load_result(path: str | Path, recordings: list[Recording] | None = None, model: Model | str | None = None) -> FitResult:
     """Restore a saved result (`result.json`) without refitting: parameters, runs, settings,
     model and (where their files are still there, or given as `recordings`) the recordings."""
     from ..io.loading import load_recording
@@ -313,7 +334,7 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
                 continue
             recordings.append(rec if "limit" not in src or src["limit"] == rec.limit else rec.replace(limit=src["limit"]))
     hist_len = max((r.get("iterations", 0) for r in runs), default=0)
-    return IdentificationResult(
+    return FitResult(
         best_values={n: float(d["params"][n]) for n in names},
         of=float(d["of"]),
         run_of=np.array([r["of"] for r in runs], float),

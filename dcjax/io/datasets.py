@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..models.params import PARAM_NAMES
+from ..models.dc import NAMES as PARAM_NAMES
 from .recording import Recording, load_csv
 from .reference import simulate_numpy
 

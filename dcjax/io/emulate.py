@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from ..models.params import PARAM_NAMES
+from ..models.dc import NAMES as PARAM_NAMES
 from .recording import Recording
 
 

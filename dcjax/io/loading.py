@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..deprecation import warn_deprecated
 from ..models import Model, get_model
 from .recording import Recording, read_sidecar, trim_switch_on
 from .units import select_channels
@@ -150,6 +151,7 @@ def load_recording(
     decimal: str = ".",
     model: Model | str | None = None,
     name: str | None = None,
+    limit: float | None = None,
     i_limit: float | None = None,
     window=None,
     every: int | None = None,
@@ -172,7 +174,7 @@ def load_recording(
       wheel behind a 9.68:1 gear on a 30 mm wheel: `{"omega": 9.68 / 0.03}`).
     - `dt` (s) or `rate` (Hz): for a file without a time column, t = k dt.
     - A JSON sidecar with the same stem supplies the name, the current limit (`i_a_limit`) and
-      metadata; `i_limit` overrides it.
+      metadata; `limit` overrides it (`i_limit=`, the 0.1 name, warns).
     - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
       (cut before switch-on) — recorded, with the file's path and sha256, in
       `metadata["source"]`, so a saved result can reload the same data."""
@@ -192,7 +194,10 @@ def load_recording(
     needed = tuple(c for c in m.channels)
     chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate)
     meta = read_sidecar(path)
-    limit = i_limit if i_limit is not None else meta.get("i_a_limit")
+    if i_limit is not None:
+        warn_deprecated("load_recording(i_limit=)", "load_recording(limit=)")
+        limit = i_limit if limit is None else limit
+    limit = limit if limit is not None else meta.get("i_a_limit")
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
     rec = preprocess(rec, window, every, trim)
@@ -204,7 +209,7 @@ def load_recording(
         "window": None if window is None else list(_window(window) or ()),
         "every": every,
         "trim": trim,
-        "i_limit": i_limit,
+        "limit": limit,
         "scale": scale or None,
         "dt": dt,
         "rate": rate,

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..deprecation import warn_deprecated
 from ..models import get_model
 from .units import select_channels
 
@@ -21,7 +22,7 @@ DC_CHANNELS = COLUMNS[1:]
 class Recording:
     """A validated response: strictly increasing time `t` (s), equally long finite channels,
     the clamp `limit` on the model's `limited_state` (for the DC models the supply's current
-    limit in A; `i_a_limit=` and `.i_a_limit` are the paper's name for it) or None, a name and
+    limit in A; `i_a_limit=`/`.i_a_limit`, the 0.1 names, warn) or None, a name and
     free-form metadata.
 
     Channels are named by keyword or in `channels`, whatever the model calls them:
@@ -42,7 +43,7 @@ class Recording:
             if np.ndim(v) == 0:  # a misspelt option, not a channel
                 raise ValueError(
                     f"{self._where()}{key}={v!r}: a keyword of Recording is a channel (a 1-D array); the options are "
-                    "channels=, limit= (or i_a_limit=), name= and metadata="
+                    "channels=, limit=, name= and metadata="
                 )
             chans[key] = v
         if not chans:
@@ -71,6 +72,8 @@ class Recording:
         if np.any(dt <= 0):
             k = int(np.flatnonzero(dt <= 0)[0])
             raise ValueError(f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
+        if i_a_limit is not None:
+            warn_deprecated("Recording(i_a_limit=)", "Recording(limit=)")
         if limit is not None and i_a_limit is not None and limit != i_a_limit:
             raise ValueError(f"{self._where()}give the limit once: limit={limit!r} and i_a_limit={i_a_limit!r}")
         given = limit = limit if limit is not None else i_a_limit
@@ -92,7 +95,8 @@ class Recording:
 
     @property
     def i_a_limit(self) -> float | None:
-        """The paper's name for `limit` (the supply's current limit of a DC drive)."""
+        """Deprecated (0.1): `limit`."""
+        warn_deprecated("Recording.i_a_limit", "Recording.limit")
         return self.limit
 
     def __getattr__(self, key):
@@ -139,6 +143,7 @@ class Recording:
         single channels (`i_a=...`) replaced."""
         chans = dict(changes.pop("channels", self.channels))
         if "i_a_limit" in changes:
+            warn_deprecated("Recording.replace(i_a_limit=)", "Recording.replace(limit=)")
             changes["limit"] = changes.pop("i_a_limit")
         for k in list(changes):
             if k not in ("t", "limit", "name", "metadata"):

@@ -1,5 +1,4 @@
-"""Search limits: a box per parameter, the paper's presets (Tables 4 and 8) and per-name
-overrides over a model's preset."""
+"""Search limits: a box per parameter, and per-name overrides over a model's preset."""
 
 from collections.abc import Mapping
 
@@ -9,8 +8,7 @@ import numpy as np
 import numpy.typing as npt
 from jaxtyping import Array, ArrayLike, Float
 
-from . import DC, Model
-from .dc import table4, table8
+from . import Model
 
 
 class Bounds(eqx.Module):
@@ -56,15 +54,6 @@ class Bounds(eqx.Module):
     def to_dict(self, names) -> dict[str, list[float]]:
         lo, hi = np.asarray(self.lower), np.asarray(self.upper)
         return {n: [float(lo[k]), float(hi[k])] for k, n in enumerate(names)}
-
-
-TABLE4, TABLE8 = (Bounds(p.lower, p.upper, DC.names) for p in (table4(), table8()))
-
-
-def bounds_preset(name: str, model: Model | None = None) -> Bounds:
-    """A named preset of `model` (default `DC`: `"table4"` or `"table8"`)."""
-    m = model if model is not None else DC()
-    return Bounds(*m.bound_arrays(name), m.names)
 
 
 def resolve_bounds(model: Model, bounds=None, overrides: Mapping[str, tuple[float, float]] | None = None) -> Bounds:

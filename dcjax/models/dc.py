@@ -50,6 +50,17 @@ def table8() -> Parameters:
 # Views of the presets for the protocol's readers (one source: the functions above).
 UNITS = {n: p.unit for n, p in table4().items()}
 TABLE29_PRECISION: dict[str, float] = {n: float(p.precision) for n, p in table4().items()}  # pyright: ignore[reportArgumentType]
+TABLE29 = np.array([TABLE29_PRECISION[n] for n in NAMES])  # Table 29 as a vector in `NAMES` order
+
+
+def load_torque_precision(torque: float, speed: float, ra: float, la: float, cm: float, j: float) -> np.ndarray:
+    """Table 29's rule for other drives of the paper's model: the load coefficients are resolved
+    to a torque of `torque` at `speed` (Tla: torque, Tlb: torque / speed, Tlc: torque / speed^2);
+    Ra, La, cm and J get the resolution the user gives (Table 29: 1e-3, 1e-3, 1e-3, 1e-4 with
+    1 mNm at 209 1/s)."""
+    if not (torque > 0 and speed > 0 and min(ra, la, cm, j) > 0):
+        raise ValueError("precisions, torque and speed must be positive")
+    return np.array([ra, la, cm, j, torque, torque / speed, torque / speed**2])
 
 
 class Coefficients(eqx.Module):

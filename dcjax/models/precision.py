@@ -6,21 +6,7 @@ from jaxtyping import ArrayLike
 
 from . import DC, Model
 from .bounds import Bounds
-from .dc import TABLE29_PRECISION
 from .space import Space, make_space
-
-# Table 29 (the paper's model), physical units, in `DC.names` order.
-TABLE29 = np.array([TABLE29_PRECISION[n] for n in DC.names])
-
-
-def load_torque_precision(torque: float, speed: float, ra: float, la: float, cm: float, j: float) -> np.ndarray:
-    """Table 29's rule for other drives of the paper's model: the load coefficients are resolved
-    to a torque of `torque` at `speed` (Tla: torque, Tlb: torque / speed, Tlc: torque / speed^2);
-    Ra, La, cm and J get the resolution the user gives (Table 29: 1e-3, 1e-3, 1e-3, 1e-4 with
-    1 mNm at 209 1/s)."""
-    if not (torque > 0 and speed > 0 and min(ra, la, cm, j) > 0):
-        raise ValueError("precisions, torque and speed must be positive")
-    return np.array([ra, la, cm, j, torque, torque / speed, torque / speed**2])
 
 
 def physical_precision(precision: ArrayLike | dict | None, model: Model) -> np.ndarray:
@@ -42,7 +28,7 @@ def physical_precision(precision: ArrayLike | dict | None, model: Model) -> np.n
     return p
 
 
-def unit_precision(precision: ArrayLike | None, space: "Space | Bounds", model: Model | None = None) -> np.ndarray:
+def unit_precision(precision: ArrayLike | dict | None, space: "Space | Bounds", model: Model | None = None) -> np.ndarray:
     """Physical precisions (default: the model's, Table 29 for the paper's model) of the free
     parameters in the unit cube the strategies search (`space`: a `Space`, or `Bounds`)."""
     model = model if model is not None else DC()

@@ -1,66 +1,41 @@
-"""Euler (eq. 11–12) and classic RK4 (eq. 14–23) marched over the sample grid with
-`jax.lax.scan`, with ND sub-steps per interval (eq. 28), linear input interpolation (eq. 29)
+"""A model marched over the sample grid by its `Integrator` (Euler, eq. 11–12; RK4, eq. 14–23; or
+a user's own) with `jax.lax.scan`, with ND sub-steps per interval (eq. 28), linear input interpolation (eq. 29)
 and the supply's limit on one state (Section 4, Fig. 4). Generic over the `Model`."""
-
-from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .integrators import Integrator
 from .problem import Problem
 
 State = tuple[Array, ...]
 
 
-def _axpy(y: State, h, k: State) -> State:
-    return tuple(a + h * b for a, b in zip(y, k))
-
-
-def euler_step(model, c, y: State, h, u0, u_half, u1) -> State:
-    """Eq. 11–12: y(k+1) = y(k) + h f(t(k), y(k)); u at the start of the step."""
-    return _axpy(y, h, model.vector_field(c, u0, y))
-
-
-def rk4_step(model, c, y: State, h, u0, u_half, u1) -> State:
-    """Eq. 14–23: classic RK4 with u at t, t + h/2 (interpolated) and t + h."""
-    hh = 0.5 * h
-    k1 = model.vector_field(c, u0, y)
-    k2 = model.vector_field(c, u_half, _axpy(y, hh, k1))
-    k3 = model.vector_field(c, u_half, _axpy(y, hh, k2))
-    k4 = model.vector_field(c, u1, _axpy(y, h, k3))
-    h6 = h / 6.0
-    return tuple(a + h6 * (q1 + 2.0 * (q2 + q3) + q4) for a, q1, q2, q3, q4 in zip(y, k1, k2, k3, k4))
-
-
-STEPS: dict[str, Callable] = {"euler": euler_step, "rk4": rk4_step}
-
-
-def _lerp(ua, ub, s):
-    return tuple(a + (b - a) * s for a, b in zip(ua, ub))
-
-
 def advance(c, problem: Problem, y: State, h, ua: State, ub: State) -> State:
-    """One sample interval: `nd` equal sub-steps (eq. 28) with the inputs linearly interpolated
-    from `ua` to `ub` (eq. 29); after every sub-step the limited state is clamped."""
-    return advance_with(problem.model, problem.integrator, problem.nd, problem.limit, c, y, h, ua, ub)
+    """One sample interval: `problem.integrator.substeps` equal sub-steps (eq. 28) with the inputs
+    linearly interpolated from `ua` to `ub` (eq. 29); after every sub-step the limited state is
+    clamped."""
+    return advance_with(problem.model, problem.integrator, problem.limit, c, y, h, ua, ub)
 
 
-def advance_with(model, integrator: str, nd: int, limit, c, y: State, h, ua: State, ub: State) -> State:
+def advance_with(model, integrator: Integrator, limit, c, y: State, h, ua: State, ub: State) -> State:
     """`advance` with the settings spelled out (also used inside the Pallas kernel)."""
-    step = STEPS[integrator]
+
+    def field(u, y):
+        return model.vector_field(c, u, y)
+
+    nd = integrator.substeps
     if nd == 1:
-        u_half = tuple(0.5 * (a + b) for a, b in zip(ua, ub))
-        return model.clamp(step(model, c, y, h, ua, u_half, ub), limit)
+        return model.clamp(integrator.step(field, y, ua, ub, h), limit)
 
     hs = h / nd
     du = tuple((b - a) / nd for a, b in zip(ua, ub))
 
     def sub(j, y):
         u0 = tuple(a + d * j for a, d in zip(ua, du))
-        u_half = tuple(a + 0.5 * d for a, d in zip(u0, du))
         u1 = tuple(a + d for a, d in zip(u0, du))
-        return model.clamp(step(model, c, y, hs, u0, u_half, u1), limit)
+        return model.clamp(integrator.step(field, y, u0, u1, hs), limit)
 
     return jax.lax.fori_loop(0, nd, sub, y)
 

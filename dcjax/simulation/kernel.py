@@ -3,7 +3,7 @@ block of candidates runs inside the kernel (one lane per candidate), instead of 
 operation per scan step. On a GPU that removes the per-step kernel launches that bound the scan
 (issue 14); on CPU the same kernel runs in Pallas' interpret mode, which the tests compare with
 the scan. Generic over the `Model`: the model's coefficients and vector field are traced inside
-the kernel, with Euler/RK4, ND sub-steps, eq. 29 interpolation, the clamp, channel weights and
+the kernel, with the problem's integrator (any `Integrator`: its `step` is traced inside the kernel), ND sub-steps, eq. 29 interpolation, the clamp, channel weights and
 non-uniform time steps exactly as in `dcjax.simulation.integrate`."""
 
 import functools
@@ -88,7 +88,7 @@ def _step(problem: Problem, model, c, y, limit, xs_ref, k):
     h = xs_ref[k, 0]
     ua = tuple(xs_ref[k, 1 + j] for j in range(m))
     ub = tuple(xs_ref[k, 1 + m + j] for j in range(m))
-    return advance_with(model, problem.integrator, problem.nd, limit, c, y, h, ua, ub)
+    return advance_with(model, problem.integrator, limit, c, y, h, ua, ub)
 
 
 def objective_kernel(x: Float[Array, "P Pn"], problem: Problem, interpret: bool = False, block: int = BLOCK) -> Float[Array, " P"]:

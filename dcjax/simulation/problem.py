@@ -1,26 +1,23 @@
 """A recording prepared for simulation with a model: the sample grid, the inputs, the scaled
 targets of the objective (paper eq. 24, 27) and the integration settings (eq. 28–29)."""
 
-from typing import Literal
-
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..deprecation import warn_deprecated
 from ..io.recording import Recording
 from ..models import Model, get_model
-
-Integrator = Literal["euler", "rk4"]
-INTEGRATORS = ("euler", "rk4")
+from .integrators import RK4, Integrator, get_integrator
 
 
 class Problem(eqx.Module):
     """Everything `simulate` and `objective` need, as arrays.
 
     Sample k = 0 is the initial state; interval k (k = 1..N-1) integrates from t[k-1] to
-    t[k] with step h[k-1] = t[k] - t[k-1], split into `nd` equal sub-steps (eq. 28) with the
-    inputs interpolated linearly between u[k-1] and u[k] (eq. 29)."""
+    t[k] with step h[k-1] = t[k] - t[k-1], split into `integrator.substeps` equal sub-steps
+    (eq. 28) with the inputs interpolated linearly between u[k-1] and u[k] (eq. 29)."""
 
     model: Model
     h: Float[Array, " n-1"]
@@ -30,8 +27,7 @@ class Problem(eqx.Module):
     y0: Float[Array, " s"]  # initial state
     limit: Float[Array, ""] | None  # on `model.limited_state`
     scale: Float[Array, " c"]  # w_c / (N * max|y_c|^2)
-    integrator: str = eqx.field(static=True, default="rk4")
-    nd: int = eqx.field(static=True, default=1)
+    integrator: Integrator = RK4()
     unroll: int = eqx.field(static=True, default=1)
 
     @property
@@ -41,15 +37,6 @@ class Problem(eqx.Module):
     def measured(self, channel: str) -> Float[Array, " n"]:
         return self.y_meas[:, self.model.outputs.index(channel)]
 
-    # The paper's channels, for the default model.
-    @property
-    def i_meas(self):
-        return self.measured("i_a")
-
-    @property
-    def w_meas(self):
-        return self.measured("omega")
-
 
 def check_positive_int(name: str, v) -> None:
     if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
@@ -58,34 +45,33 @@ def check_positive_int(name: str, v) -> None:
 
 def make_problem(
     recording: Recording,
-    integrator: Integrator | str = "rk4",
-    nd: int = 1,
+    integrator: Integrator | None = None,
     weights: tuple[float, ...] | None = None,
-    voltage: float | None = None,
-    i0: float | None = None,
-    w0: float | None = None,
-    i_limit: float | None = None,
-    unroll: int = 1,
+    *,
     model: Model | str | None = None,
     initial: dict[str, float] | None = None,
+    voltage: float | None = None,
+    unroll: int = 1,
+    **legacy,
 ) -> Problem:
     """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
 
-    - `integrator`: `"euler"` (eq. 11–12) or `"rk4"` (eq. 14–23).
-    - `nd`: sub-steps per sample interval (eq. 28); the inputs are interpolated (eq. 29).
+    - `integrator`: a `dcjax.Integrator` (`Euler(substeps=N)`, eq. 11–12; `RK4(substeps=N)`,
+      eq. 14–23, the default with N = 1; or a user's own), N sub-steps per sample interval
+      (eq. 28) with the inputs interpolated (eq. 29).
     - `weights`: one weight per measured channel (w1, w2 of eq. 27). The paper's eq. 24 is all
       ones, the default, so OF values compare directly with Tables 5, 9–16; eq. 27 uses
       w1 + w2 = 1 (e.g. (0.5, 0.5) is half of eq. 24).
-    - `voltage`: a constant first input (step response) instead of the recorded one.
     - `initial`: initial state by state name; default the recording's first sample (a state the
-      recording lacks starts at 0). `i0`, `w0`: the same for the paper's i_a and omega.
-    - `i_limit`: the supply's limit on `model.limited_state`; default the recording's
-      `limit` (None: no limit).
+      recording lacks starts at 0).
+    - `voltage`: a constant first input (step response) instead of the recorded one.
+    - The supply's limit on `model.limited_state` is the recording's `limit` (None: no limit;
+      `recording.replace(limit=...)` for another).
     """
+    integrator, initial, recording = _legacy_options(integrator, initial, recording, legacy)
     model = get_model(model)
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
-    check_positive_int("nd", nd)
+    if not isinstance(integrator, Integrator):
+        raise ValueError(f"integrator must be a dcjax.Integrator (dcjax.Euler(substeps=N), dcjax.RK4(substeps=N), ...), got {integrator!r}")
     check_positive_int("unroll", unroll)
     outs = model.outputs
     if weights is None:
@@ -112,7 +98,7 @@ def make_problem(
         u[:, 0] = float(voltage)
     if not np.all(np.isfinite(u)):
         raise ValueError("voltage must be finite")
-    limit = recording.limit if i_limit is None else float(i_limit)
+    limit = recording.limit
     if limit is not None and not limit > 0:
         raise ValueError(f"current limit must be positive, got {limit}")
     y = np.stack([recording[c] for c in outs], axis=1)
@@ -121,10 +107,6 @@ def make_problem(
         if not m > 0:
             raise ValueError(f"{recording._where()}column {c!r} is all zero (the objective divides by its maximum)")
     init = dict(initial or {})
-    if i0 is not None:
-        init["i_a"] = i0
-    if w0 is not None:
-        init["omega"] = w0
     bad = [s for s in init if s not in model.states]
     if bad:
         raise ValueError(f"unknown state(s) {bad} for model {model.name}; its states are {model.states}")
@@ -141,6 +123,31 @@ def make_problem(
         limit=None if limit is None or model.limited_state is None else f64(limit),
         scale=f64(w / (n * peak**2)),
         integrator=integrator,
-        nd=int(nd),
         unroll=int(unroll),
     )
+
+
+def _legacy_options(integrator, initial, recording, legacy: dict):
+    """The 0.1 keywords of `make_problem` (`integrator="rk4", nd=N`, `i0=`, `w0=`, `i_limit=`),
+    each with a `DeprecationWarning`; anything else is a one-line error."""
+    unknown = sorted(set(legacy) - {"nd", "i0", "w0", "i_limit"})
+    if unknown:
+        raise ValueError(f"make_problem: unknown option(s) {unknown}; it takes integrator, weights, model, initial, voltage, unroll")
+    nd = legacy.get("nd")
+    if isinstance(integrator, str) or nd is not None:
+        warn_deprecated("make_problem(integrator='rk4', nd=N)", "make_problem(integrator=dcjax.RK4(substeps=N))", 4)
+        check_positive_int("nd", 1 if nd is None else nd)
+        if isinstance(integrator, Integrator):
+            integrator = type(integrator)(substeps=int(nd)) if nd is not None else integrator
+        else:
+            integrator = get_integrator(integrator or "rk4", int(nd or 1))
+    integrator = RK4() if integrator is None else integrator
+    init = dict(initial or {})
+    for key, state in (("i0", "i_a"), ("w0", "omega")):
+        if legacy.get(key) is not None:
+            warn_deprecated(f"make_problem({key}=)", f"make_problem(initial={{{state!r}: ...}})", 4)
+            init[state] = legacy[key]
+    if legacy.get("i_limit") is not None:
+        warn_deprecated("make_problem(i_limit=)", "make_problem(recording.replace(limit=...))", 4)
+        recording = recording.replace(limit=float(legacy["i_limit"]))
+    return integrator, init or None, recording

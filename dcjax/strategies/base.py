@@ -13,7 +13,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
 from .compact import compacted
-from .memory import Memory
+from .memory import HashRecords, MemoryAssistance, Records, get_memory
 
 FitnessFn = Callable[[Float[Array, "P D"]], Float[Array, " P"]]
 
@@ -21,7 +21,7 @@ FitnessFn = Callable[[Float[Array, "P D"]], Float[Array, " P"]]
 class State(eqx.Module):
     """Population `pop` (P, D) in the unit cube, its objective values `fit`, the best point
     seen, the fitness evaluations really made (`fes`), the candidates answered from memory
-    (`dups`), a strategy-specific `aux` pytree and the optional `memory` (`Memory`)."""
+    (`dups`), a strategy-specific `aux` pytree and the optional memory `Records`."""
 
     pop: Float[Array, "P D"]
     fit: Float[Array, " P"]
@@ -30,7 +30,7 @@ class State(eqx.Module):
     fes: Int[Array, ""]
     aux: PyTree = None
     dups: Int[Array, ""] | None = None
-    memory: Memory | None = None
+    memory: Records | HashRecords | None = None
 
     def replace(self, **changes) -> "State":
         return dataclasses.replace(self, **changes)
@@ -253,7 +253,7 @@ def run_start(
     fn: FitnessFn,
     budget: int,
     dim: int,
-    memory: str | None = None,
+    memory: "MemoryAssistance | str | None" = None,
     precision: Float[Array, " D"] | None = None,
     generations: int | None = None,
     capacity: int | None = None,
@@ -263,12 +263,13 @@ def run_start(
     t_max = iteration_limit(strategy, budget, generations)
     k_init, k_run = jax.random.split(key)
     state = with_best(strategy.init(k_init, fn, budget, dim, x0))
+    memory = get_memory(memory)
     if memory is not None:
         if precision is None:
             raise ValueError("memory needs a precision vector (unit-cube units)")
         evaluated = jnp.arange(state.pop.shape[0]) < state.fes
         cap = capacity if capacity is not None else budget + strategy.pop_size
-        state = state.replace(memory=Memory.create(memory, precision, state.pop, state.fit, evaluated, cap))
+        state = state.replace(memory=memory.create(precision, state.pop, state.fit, evaluated, cap))
     return RunCarry(state, jnp.asarray(0), jnp.full((max(1, t_max),), jnp.nan), k_run)
 
 
@@ -309,7 +310,7 @@ def run_batch(
     fn: FitnessFn,
     budget: int,
     dim: int,
-    memory: str | None = None,
+    memory: "MemoryAssistance | str | None" = None,
     precision: Float[Array, " D"] | None = None,
     generations: int | None = None,
     x0: Float[Array, "K D"] | None = None,
@@ -364,7 +365,7 @@ def run(
     fn: FitnessFn,
     budget: int,
     dim: int,
-    memory: str | None = None,
+    memory: "MemoryAssistance | str | None" = None,
     precision: Float[Array, " D"] | None = None,
     generations: int | None = None,
     capacity: int | None = None,
@@ -373,8 +374,8 @@ def run(
     """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
     `generations`, at most that many iterations.
 
-    `memory` (`"stma"`, `"ltma-s1"`, `"ltma-s2"`, `"ltma-hash"`; see `Memory`) with `precision` in unit-cube
-    units. Duplicates cost no FEs and are not simulated; without `generations` a run with memory
+    `memory` (`STMA()`, `LTMA(order=...)`, `IndexedLTMA()` or their names; see
+    `dcjax.strategies.memory`) with `precision` in unit-cube units. Duplicates cost no FEs and are not simulated; without `generations` a run with memory
     makes the memory-free run's iterations (the paper's Time % and Dupl. % compare equal counts).
     The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
     initial population (see `Strategy.init`). The same run in pieces: `run_start`, `run_steps`

@@ -2,10 +2,15 @@
 of a stored record (every parameter closer than its precision) is a duplicate; it takes the
 record's parameters and OF and is not simulated.
 
-- `"stma"`: the records are the previous iteration's population (refreshed after every step).
-- `"ltma-s1"` / `"ltma-s2"`: the records are the whole search history; every evaluated
-  non-duplicate is appended. The history is searched in chunks, oldest first (S1) or newest
-  first (S2), and the search stops as soon as every candidate is resolved.
+A memory is chosen with a small object that creates its own records (`create`) for a run:
+
+- `STMA()` ("stma"): the records are the previous iteration's population (refreshed after every step).
+- `LTMA(order="oldest" | "newest")` ("ltma-s1" / "ltma-s2"): the records are the whole search
+  history; every evaluated non-duplicate is appended. The history is searched in chunks, oldest
+  first (S1) or newest first (S2), and the search stops as soon as every candidate is resolved.
+- `IndexedLTMA()` ("ltma-hash"): the history indexed by precision-grid cells (`HashRecords`).
+
+The records answer `lookup(z)`, `add(z, f, new)` and `refresh(pop, fit)`.
 
 A duplicate takes the record's *parameters* as well as its OF, so every (x, OF) pair a run holds
 was really evaluated. When a candidate matches several records, S1 returns the oldest and S2 the
@@ -22,50 +27,113 @@ evaluation must); the paper's one-by-one loop would also catch a near-copy of a 
 same batch that was just added. For STMA the two are identical (the memory changes only between
 iterations)."""
 
+import abc
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import ClassVar, Literal
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
-MEMORY_KINDS = ("stma", "ltma-s1", "ltma-s2", "ltma-hash")
+
+class MemoryAssistance(eqx.Module):
+    """Memory assistance (paper Section 4.4): a candidate within the parameters' precisions of a
+    record is not simulated. `kind` is the name result files and the CLI spell it."""
+
+    kind: ClassVar[str] = ""
+
+    @abc.abstractmethod
+    def create(self, precision, pop, fit, evaluated, capacity: int) -> "Records | HashRecords":
+        """The records of a run that starts with population `pop` (unit cube), its OFs `fit`,
+        `evaluated` marking the members really simulated; `precision` in unit-cube units."""
 
 
-class Memory(eqx.Module):
-    """Records `x` (unit cube) and `f`, the first `n` filled; `precision` in unit-cube units."""
+class STMA(MemoryAssistance):
+    """Short-term memory: the previous iteration's population."""
+
+    kind: ClassVar[str] = "stma"
+
+    def create(self, precision, pop, fit, evaluated, capacity: int) -> "Records":
+        precision = jnp.asarray(precision, pop.dtype)
+        zero = jnp.asarray(0)
+        return Records(pop, fit, jnp.asarray(pop.shape[0]), precision, zero, pop.shape[0], newest_first=False, population=True)
+
+
+class LTMA(MemoryAssistance):
+    """Long-term memory: the whole history, searched oldest first (S1) or newest first (S2)."""
+
+    order: Literal["oldest", "newest"] = eqx.field(static=True, default="newest")
+    chunk: int = eqx.field(static=True, default=1024)
+
+    def __check_init__(self):
+        if self.order not in ("oldest", "newest"):
+            raise ValueError(f"LTMA order must be 'oldest' or 'newest', got {self.order!r}")
+
+    @property
+    def kind(self) -> str:  # pyright: ignore[reportIncompatibleVariableOverride]
+        return "ltma-s1" if self.order == "oldest" else "ltma-s2"
+
+    def create(self, precision, pop, fit, evaluated, capacity: int) -> "Records":
+        precision = jnp.asarray(precision, pop.dtype)
+        zero = jnp.asarray(0)
+        capacity = max(int(capacity), pop.shape[0])
+        chunk = min(self.chunk, capacity)
+        d = pop.shape[1]
+        empty = Records(jnp.zeros((capacity, d), pop.dtype), jnp.zeros(capacity, fit.dtype), zero, precision, zero, chunk,
+                        newest_first=self.order == "newest", population=False)  # fmt: skip
+        return empty.add(pop, fit, evaluated)
+
+
+class IndexedLTMA(MemoryAssistance):
+    """Long-term memory indexed by precision-grid cells (an open-addressing table, `HashRecords`)."""
+
+    kind: ClassVar[str] = "ltma-hash"
+
+    def create(self, precision, pop, fit, evaluated, capacity: int) -> "HashRecords":
+        return HashRecords.create(precision, pop, fit, evaluated, capacity)
+
+
+# The memories by the names the CLI, result files and the experiments' store spell them.
+MEMORIES: Mapping[str, MemoryAssistance] = MappingProxyType(
+    {m.kind: m for m in (STMA(), LTMA(order="oldest"), LTMA(order="newest"), IndexedLTMA())}
+)
+
+
+def get_memory(memory: "str | MemoryAssistance | None") -> MemoryAssistance | None:
+    """A memory object from itself, None or its name (`MEMORIES`)."""
+    if memory is None or isinstance(memory, MemoryAssistance):
+        return memory
+    if isinstance(memory, str) and memory.lower() in MEMORIES:
+        return MEMORIES[memory.lower()]
+    raise ValueError(
+        f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...), dcjax.IndexedLTMA() or one of {sorted(MEMORIES)}, got {memory!r}"
+    )
+
+
+class Records(eqx.Module):
+    """Records `x` (unit cube) and `f`, the first `n` filled; `precision` in unit-cube units.
+    `population`: STMA's records (the population, refreshed after each iteration, nothing
+    appended); else an LTMA history searched in chunks, `newest_first` for S2."""
 
     x: Float[Array, "C D"]
     f: Float[Array, " C"]
     n: Int[Array, ""]
     precision: Float[Array, " D"]
     chunks: Int[Array, ""]  # memory chunks compared so far (search work)
-    kind: str = eqx.field(static=True)
     chunk: int = eqx.field(static=True)
+    newest_first: bool = eqx.field(static=True, default=False)
+    population: bool = eqx.field(static=True, default=False)
 
-    @staticmethod
-    def create(kind: str, precision, pop, fit, evaluated, capacity: int, chunk: int = 1024) -> "Memory":
-        """STMA: the population itself; LTMA: an empty history of `capacity` with the evaluated
-        members of the initial population appended."""
-        if kind not in MEMORY_KINDS:
-            raise ValueError(f"memory must be None or one of {MEMORY_KINDS}, got {kind!r}")
-        if kind == "ltma-hash":
-            return HashMemory.create(precision, pop, fit, evaluated, capacity)  # pyright: ignore[reportReturnType]
-        precision = jnp.asarray(precision, pop.dtype)
-        zero = jnp.asarray(0)
-        if kind == "stma":
-            return Memory(pop, fit, jnp.asarray(pop.shape[0]), precision, zero, kind, pop.shape[0])
-        capacity = max(int(capacity), pop.shape[0])
-        chunk = min(chunk, capacity)
-        empty = Memory(jnp.zeros((capacity, pop.shape[1]), pop.dtype), jnp.zeros(capacity, fit.dtype), zero, precision, zero, kind, chunk)
-        return empty.add(pop, fit, evaluated)
-
-    def lookup(self, z: Float[Array, "P D"]) -> tuple[Bool[Array, " P"], Float[Array, "P D"], Float[Array, " P"], "Memory"]:
+    def lookup(self, z: Float[Array, "P D"]) -> tuple[Bool[Array, " P"], Float[Array, "P D"], Float[Array, " P"], "Records"]:
         """(found, record x, record OF, memory with its work counter advanced) for each candidate:
         found where |z - x_r| < precision in every parameter for some filled record r; the first
         record in search order (oldest first for STMA and S1, newest first for S2)."""
         p, _ = z.shape
         cap, ch = self.x.shape[0], self.chunk
-        newest_first = self.kind == "ltma-s2"
+        newest_first = self.newest_first
         n_chunks = -(-self.n // ch)
 
         def cond(carry):
@@ -93,10 +161,10 @@ class Memory(eqx.Module):
         k, found, idx = jax.lax.while_loop(cond, body, init)
         return found, self.x[idx], self.f[idx], eqx.tree_at(lambda m: m.chunks, self, self.chunks + k)
 
-    def add(self, z: Float[Array, "P D"], f: Float[Array, " P"], new: Bool[Array, " P"]) -> "Memory":
+    def add(self, z: Float[Array, "P D"], f: Float[Array, " P"], new: Bool[Array, " P"]) -> "Records":
         """LTMA: append the rows of `z`, `f` where `new`, in order (rows past capacity are dropped).
         STMA: unchanged (see `refresh`)."""
-        if self.kind == "stma":
+        if self.population:
             return self
         pos = jnp.where(new, self.n + jnp.cumsum(new) - 1, self.x.shape[0])
         x = self.x.at[pos].set(z, mode="drop")
@@ -104,9 +172,9 @@ class Memory(eqx.Module):
         n = jnp.minimum(self.n + jnp.sum(new), self.x.shape[0])
         return eqx.tree_at(lambda m: (m.x, m.f, m.n), self, (x, fr, n))
 
-    def refresh(self, pop: Float[Array, "P D"], fit: Float[Array, " P"]) -> "Memory":
+    def refresh(self, pop: Float[Array, "P D"], fit: Float[Array, " P"]) -> "Records":
         """STMA after each iteration: the memory becomes the current population."""
-        if self.kind != "stma":
+        if not self.population:
             return self
         return eqx.tree_at(lambda m: (m.x, m.f), self, (pop, fit))
 
@@ -127,8 +195,8 @@ _HASH_MULTIPLIERS = np.array(
 )
 
 
-class HashMemory(eqx.Module):
-    """LTMA with an index (`"ltma-hash"`): every parameter is quantized at its precision,
+class HashRecords(eqx.Module):
+    """LTMA with an index (`IndexedLTMA`, `"ltma-hash"`): every parameter is quantized at its precision,
     q = floor(z / precision), and a candidate is a duplicate when a stored record has the same q
     (the same cell of the precision grid) — an O(1) look-up in an open-addressing hash table
     instead of the paper's linear search over the history (Fig. 24). Each cell holds at most one
@@ -146,16 +214,15 @@ class HashMemory(eqx.Module):
     n: Int[Array, ""]
     precision: Float[Array, " D"]
     chunks: Int[Array, ""]  # look-ups made (search work)
-    kind: str = eqx.field(static=True, default="ltma-hash")
 
     PROBES = 8
 
     @staticmethod
-    def create(precision, pop, fit, evaluated, capacity: int) -> "HashMemory":
+    def create(precision, pop, fit, evaluated, capacity: int) -> "HashRecords":
         size = 1 << int(np.ceil(np.log2(max(2 * int(capacity), 16))))
         d = pop.shape[1]
         precision = jnp.asarray(precision, pop.dtype)
-        empty = HashMemory(
+        empty = HashRecords(
             jnp.zeros((size, d), jnp.int64),
             jnp.zeros((size, d + 1), pop.dtype),
             jnp.zeros(size, bool),
@@ -178,7 +245,7 @@ class HashMemory(eqx.Module):
         return ((h[..., None] + jnp.arange(self.PROBES, dtype=jnp.uint64)) & jnp.uint64(size - 1)).astype(jnp.int64)
 
     def lookup(self, z):
-        """(found, record x, record OF, memory) for each candidate (see `Memory.lookup`)."""
+        """(found, record x, record OF, memory) for each candidate (see `Records.lookup`)."""
         q = self._quantize(z)
         slots = self._slots(q)  # (P, probes)
         hit = self.used[slots] & jnp.all(self.keys[slots] == q[:, None, :], axis=-1)

@@ -20,7 +20,7 @@ from .thresholds import T
 def response_figures(R: Results, L: list[str], figures: Path):
     import matplotlib.pyplot as plt
 
-    from dcjax import Params, make_problem, simulate
+    from dcjax import INTEGRATORS, make_problem, simulate
 
     figures.mkdir(parents=True, exist_ok=True)
     made, verdicts = [], []
@@ -30,7 +30,7 @@ def response_figures(R: Results, L: list[str], figures: Path):
         ax[0].plot(rec.t, rec.i_a, "k.", ms=3, label="measured")
         ax[1].plot(rec.t, rec.omega, "k.", ms=3, label="measured")
         for label, params, integ, nd in fits:
-            sim = np.asarray(simulate(Params.from_dict(params), make_problem(rec, integrator=integ, nd=nd)))
+            sim = np.asarray(simulate(params, make_problem(rec, INTEGRATORS[integ](substeps=nd))))
             ax[0].plot(rec.t, sim[:, 0], lw=1, label=label)
             ax[1].plot(rec.t, sim[:, 1], lw=1, label=label)
         ax[0].set(xlabel="t (s)", ylabel="i_a (A)", title=title)
@@ -47,7 +47,7 @@ def response_figures(R: Results, L: list[str], figures: Path):
 
         rec = recording("MD1")
         fig("fig16_md1_rk.png", "Fig. 16 analogue: MD1, the whole recording and the RK fit", rec, [("RK", md1["best"], "rk4", 1)])
-        sim = np.asarray(simulate(Params.from_dict(md1["best"]), make_problem(rec, integrator="rk4", nd=1)))
+        sim = np.asarray(simulate(md1["best"], make_problem(rec)))
         fits = [fit_percent(rec.i_a, sim[:, 0]), fit_percent(rec.omega, sim[:, 1])]
         verdicts.append(
             f"**Verdict (Fig. 16): {'reproduced' if min(fits) >= 90 else 'differs'}** — the MD1 RK fit follows the whole "

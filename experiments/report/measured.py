@@ -4,7 +4,7 @@ from collections import Counter
 
 import numpy as np
 
-from dcjax import PARAM_NAMES
+from dcjax.models.dc import NAMES as PARAM_NAMES
 
 from ..cells import VARIANTS, recording
 from .common import (

@@ -173,9 +173,9 @@ def section_bounds(R: Results, L: list[str]):
         return
     data = p["bounds_data"]
     rows, all_ok = [], []
-    from dcjax import TABLE4
+    from dcjax.models.dc import table4
 
-    hi = np.asarray(TABLE4.upper)
+    hi = table4().upper
     for rule in p["bounds_rules"]:
         for init in p["init_rules"]:
             r = R.get(data, bounds_rule="" if rule == "redraw" else rule, init_rule="" if init == "uniform" else init)

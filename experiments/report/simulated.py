@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dcjax import PARAM_NAMES
+from dcjax.models.dc import NAMES as PARAM_NAMES
 
 from ..cells import recording
 from .common import (

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from dcjax import PARAM_NAMES
+from dcjax.models.dc import NAMES as PARAM_NAMES
 
 from ..cells import ABLATION_CASES, recording
 from .common import (

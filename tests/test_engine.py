@@ -1,0 +1,129 @@
+"""The engine in the typed vocabulary: integrators and memories carry their behaviour, the strategy
+object's settings are the ones recorded, errors are not swallowed, and the 0.1 names warn."""
+
+import dataclasses
+import re
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import dcjax
+from dcjax import datasets
+from dcjax.compat import identify
+from dcjax.fitting.polish import polish
+from dcjax.strategies import DERand1Exp
+
+ROOT = Path(__file__).resolve().parent.parent
+SMALL = dict(runs=2, budget=1400, seed=3)
+
+
+class MyEuler(dcjax.Integrator):
+    """Forward Euler written by a user."""
+
+    def step(self, field, y, u0, u1, h):
+        return tuple(a + h * b for a, b in zip(y, field(u0, y)))
+
+
+def test_a_users_euler_gives_the_bits_of_euler(sd1):
+    a = dcjax.fit(sd1, params="table4", integrator=MyEuler(substeps=2), **SMALL)
+    b = dcjax.fit(sd1, params="table4", integrator=dcjax.Euler(substeps=2), **SMALL)
+    np.testing.assert_array_equal(a.run_params, b.run_params)
+    np.testing.assert_array_equal(a.run_of, b.run_of)
+    assert a.settings["integrator"] == f"{__name__}:MyEuler" and b.settings["integrator"] == "euler"
+    np.testing.assert_array_equal(a.simulate(), b.simulate())  # the result keeps its integrator object
+
+
+def test_integrator_errors_are_one_line(sd1):
+    with pytest.raises(ValueError, match="substeps must be a positive integer"):
+        dcjax.RK4(substeps=0)
+    with pytest.raises(ValueError, match="integrator must be dcjax.Euler"):
+        dcjax.fit(sd1, integrator="rk4", **SMALL)  # pyright: ignore[reportArgumentType]
+    with pytest.raises(TypeError):
+        dcjax.Integrator()  # abstract: no step  # pyright: ignore[reportAbstractUsage]
+
+
+def test_the_strategy_objects_pop_size_is_recorded_with_its_duplicate_share(sd1):
+    r = dcjax.fit(sd1, params="table4", method=DERand1Exp(pop_size=40), memory=dcjax.STMA(), runs=2, budget=2000, seed=1)
+    assert r.settings["pop_size"] == 40 and r.settings["method"] == "de-rand-1-exp"
+    expect = 100 * np.mean(r.dups / (40 * (r.iterations + 1)))
+    assert r.duplicates is not None and r.duplicates["percent"] == pytest.approx(expect)
+
+
+def test_a_polish_stopped_at_its_step_limit_is_not_success(sd1):
+    prob = dcjax.make_problem(sd1)
+    space = dcjax.make_space(dcjax.DC(), dcjax.Bounds(*dcjax.DC().bound_arrays("table4"), dcjax.DC.names))
+    x = jnp.asarray([40.0, 0.07, 0.45, 2.2e-5, 0.02, 3e-5, 8e-8])
+    short = polish(x, prob, space, max_steps=2)
+    assert not bool(short.converged) and float(short.of_after) <= float(short.of_before)
+    r = dcjax.fit(sd1, params="table4", polish=True, **SMALL)
+    assert r.polish is not None and len(r.polish["converged"]) == 2
+    stopped = dataclasses.replace(r, polish={**r.polish, "converged": [False, True]})
+    assert r.success == all(r.polish["converged"]) and not stopped.success
+    assert "stopped at its step limit" in stopped.message
+
+
+def test_the_batched_fit_each_raises_what_is_not_a_recordings_own_failure(sd1, monkeypatch):
+    import dcjax.fitting.batch as batch
+
+    def broken(*a, **k):
+        raise RuntimeError("the compiled call broke")
+
+    monkeypatch.setattr(batch, "_run_group", broken)
+    with pytest.raises(RuntimeError, match="the compiled call broke"):
+        dcjax.fit_each([sd1, sd1], params="table4", **SMALL)
+
+
+def test_identify_warns_and_gives_the_bits_of_fit(sd1):
+    with pytest.warns(DeprecationWarning, match="dcjax.fit"):
+        old = identify(sd1, integrator="euler", nd=2, weights=(1.0, 0.5), bounds={"Ra": (10.0, 60.0)},
+                                    fixed={"Tlc": 8.55e-8}, x0={"Ra": 40.0}, memory="ltma-s2", **SMALL)  # fmt: skip
+    params = dcjax.DC().parameters("table4")
+    params["Ra"].set(min=10.0, max=60.0, value=40.0)
+    params["Tlc"].set(value=8.55e-8, vary=False)
+    new = dcjax.fit(dcjax.with_weights(sd1, {"i_a": 1.0, "omega": 0.5}), params=params, integrator=dcjax.Euler(substeps=2),
+                    memory=dcjax.LTMA(order="newest"), **SMALL)  # fmt: skip
+    np.testing.assert_array_equal(old.run_params, new.run_params)
+    np.testing.assert_array_equal(old.dups, new.dups)
+
+
+def test_the_01_names_warn_and_are_not_in_all():
+    for name in ("identify", "Params", "PARAM_NAMES", "TABLE4", "IdentificationResult", "identify_fleet"):
+        assert name not in dcjax.__all__
+        with pytest.warns(DeprecationWarning, match=f"dcjax.{name} is deprecated"):
+            getattr(dcjax, name)
+    with pytest.warns(DeprecationWarning, match="RK4"):
+        prob = dcjax.make_problem(datasets.load("SD1"), integrator="rk4", nd=3)
+    assert prob.integrator == dcjax.RK4(substeps=3)
+    with pytest.raises(AttributeError):
+        dcjax.no_such_name  # noqa: B018
+
+
+@pytest.mark.slow
+def test_the_package_paths_use_no_deprecated_name(tmp_path):
+    """fit, fit_each, uncertainty and the CLI under `-W error::DeprecationWarning`."""
+    code = (
+        "import dcjax; from dcjax import datasets\n"
+        "r = dcjax.fit(datasets.load('SD1'), runs=2, budget=700, polish=True).uncertainty(); r.report()\n"
+        "dcjax.fit_each([datasets.load('SD1'), datasets.load('SD2')], runs=1, budget=700)\n"
+        "import sys; from dcjax.cli import main\n"
+        f"assert main(['fit', 'SD1', '--runs', '2', '--budget', '700', '--memory', 'stma', '--out', {str(tmp_path)!r}]) == 0\n"
+        f"assert main(['validate', {str(tmp_path / 'result.json')!r}, 'SD2', '--out', {str(tmp_path / 'v')!r}]) == 0\n"
+    )
+    out = subprocess.run([sys.executable, "-W", "error::DeprecationWarning", "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr[-2000:]
+
+
+@pytest.mark.parametrize("page", ["own-strategy.md", "own-integrator.md"])
+def test_guide_examples_run(page):
+    """The complete examples of the guide pages 'Your own strategy' and 'Your own integrator'."""
+    text = (ROOT / "docs" / "guide" / page).read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        exec(compile("\n".join(blocks), page, "exec"), {"__name__": f"guide_{page[:-3].replace('-', '_')}"})

@@ -40,14 +40,15 @@ def test_information_matches_finite_differences_of_the_numpy_integrator():
 
 
 def test_design_respects_range_hold_and_current_limit():
-    d = design_input("dc", SD1, duration=0.02, dt=1e-4, u_range=(-50.0, 150.0), hold=2e-3, i_limit=1.5, **TINY)
+    d = design_input("dc", SD1, duration=0.02, dt=1e-4, u_range=(-50.0, 150.0), hold=2e-3, limit=1.5, **TINY)
     u = d.recording.u_a
     assert u.min() >= -50.0 - 1e-9 and u.max() <= 150.0 + 1e-9
     per = 20
     for k in range(0, len(u), per):
         assert np.ptp(u[k : k + per]) == 0.0  # one level per hold interval
+    assert np.ptp(u[-per - 1 :]) == 0.0  # the last level lasts a full hold (and the final sample), never one sample
     assert np.max(np.abs(d.recording.i_a)) <= 1.5 + 1e-12
-    assert len(d.levels) == -(-len(u) // per)
+    assert len(d.levels) == (len(u) - 1) // per
 
 
 @pytest.mark.slow

@@ -37,6 +37,7 @@ from ..models import Model, get_model
 from ..simulation.integrators import RK4
 from ..simulation.objectives import simulate
 from ..simulation.problem import Problem, make_problem
+from .plotting import channel_label
 
 DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
 NULL_TOL = 1e-12  # an eigenvalue of the scaled information below this fraction of the largest: numerically zero, not identifiable
@@ -166,7 +167,7 @@ def design_input(
     m = get_model(model)
     n, lo, hi, per = _grid(m, params, duration, dt, u_range, hold)
     free_names, scales, weights = _free(m, params, criterion, fixed, scale)
-    segments = -(-n // per)
+    segments = max(1, (n - 1) // per)  # whole hold intervals; the last level also holds the final samples
     t = np.arange(n) * dt
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
@@ -185,7 +186,7 @@ def design_input(
         us = [_on_grid(b, n) for b in baselines]
         logvar = [np.log(np.asarray(_variances(with_input(base, jnp.asarray(u)), x, free, sigma, sc))) for u in us]
         reference = jnp.asarray(np.min(logvar, axis=0))
-        levels = np.array([np.clip((u[::per] - lo) / (hi - lo), 0.0, 1.0) for u in us])
+        levels = np.array([np.clip((u[::per][:segments] - lo) / (hi - lo), 0.0, 1.0) for u in us])
         z0 = jnp.concatenate([jnp.asarray(levels), z0])[: max(starts, len(us))]
     loss = _Criterion(base, x, free, sigma, sc, jnp.asarray(weights), reference, crit, segments, per, lo, hi)
     zs, fs = _optimize(loss, z0, int(steps), 0.02)
@@ -278,7 +279,7 @@ class _Criterion(eqx.Module):
     def profile(self, z: jax.Array) -> jax.Array:
         n = self.base.y_meas.shape[0]
         u = self.lo + (self.hi - self.lo) * jnp.clip(z, 0.0, 1.0)
-        return jnp.repeat(u, self.per, total_repeat_length=self.segments * self.per)[:n]
+        return jnp.repeat(u, self.per, total_repeat_length=n)  # the last level repeated to the end: never a short last level
 
     def __call__(self, z: jax.Array) -> tuple[jax.Array, jax.Array]:
         F = information(with_input(self.base, self.profile(z)), self.x, self.free, self.sigma, self.scale)
@@ -364,7 +365,7 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
     per = max(1, int(round(hold / (t[1] - t[0]))))
     return Design(
         recording=rec,
-        levels=np.asarray(u)[::per],
+        levels=np.asarray(u)[::per][: max(1, (len(u) - 1) // per)],
         hold=float(hold),
         criterion=str(criterion),
         value=float(value),
@@ -478,7 +479,7 @@ def _plot_design(design: Design, baselines: dict[str, Design], m: Model, path) -
         for label, b in baselines.items():
             if len(b.recording) == len(rec):
                 ax.plot(b.recording.t, b.recording[c], lw=0.8, alpha=0.7, label=label)
-        ax.set(ylabel=c, xlabel="t (s)")
+        ax.set(ylabel=channel_label(m, c), xlabel="t (s)")
         ax.legend(fontsize=7)
     ax = axes[-1]
     k = np.arange(len(design.free))
@@ -490,4 +491,4 @@ def _plot_design(design: Design, baselines: dict[str, Design], m: Model, path) -
     ax.set(yscale="log", ylabel="predicted rel. std. error (%)")
     ax.legend(fontsize=7)
     fig.suptitle(f"designed input ({design.criterion}-criterion, hold {design.hold:g} s)")
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=90)

@@ -6,18 +6,26 @@ from pathlib import Path
 
 import numpy as np
 
-LABELS = {"i_a": "i_a (A)", "omega": "ω (1/s)", "u_a": "u_a (V)"}
+# The SI unit a loaded channel is in, by the model's quantity (`dcjax.io.units.UNITS`).
+SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s", "angle": "rad", "torque": "Nm",
+            "position": "m", "speed": "m/s", "force": "N"}  # fmt: skip
 
 
-def _label(c: str) -> str:
-    return LABELS.get(c, c)
+def channel_label(model, c: str) -> str:
+    """`c (unit)` from the model's quantity of the channel (the loader converts to SI), else `c`."""
+    unit = SI_UNITS.get(model.quantities.get(c, ""), "") if model is not None else ""
+    return f"{c} ({unit})" if unit else c
 
 
-def overlay(ax, recording, simulated: np.ndarray, channel: str, title: str = ""):
+def _label(c: str, model=None) -> str:
+    return channel_label(model, c)
+
+
+def overlay(ax, recording, simulated: np.ndarray, channel: str, title: str = "", model=None):
     """Measured (dots) and simulated (line) `channel` on `ax`."""
     ax.plot(recording.t, recording[channel], "k.", ms=3, label="measured")
     ax.plot(recording.t, simulated, "r-", lw=1, label="simulated")
-    ax.set(xlabel="t (s)", ylabel=_label(channel), title=title or channel)
+    ax.set(xlabel="t (s)", ylabel=_label(channel, model), title=title or channel)
     ax.legend()
     return ax
 
@@ -33,10 +41,15 @@ def _figure(nrows, ncols, size, for_file: bool):
     return plt.subplots(nrows, ncols, figsize=size, squeeze=False)
 
 
-def plot_result(result, path: str | Path | None = None, ax=None, recordings=None):
-    """Per recording: each measured channel against the simulation, its residual below it, the
-    input(s); the convergence of every run beside the first. `ax`: an Axes (or one per measured
-    channel) to draw only the overlays of the first recording into; returns what it drew on."""
+MAX_RECORDINGS = 4  # a joint fit of many recordings plots the first few (a fit.png stays small)
+
+
+def plot_result(result, path: str | Path | None = None, ax=None, recordings=None, convergence: bool = True):
+    """Per recording (the first `MAX_RECORDINGS`): each measured channel against the simulation
+    with its residual below it, and the input(s); with `convergence`, the convergence of every run
+    beside the first. Axes carry the channels' SI units (`Model.quantities`). `ax`: an Axes (or one
+    per measured channel) to draw only the overlays of the first recording into; returns what it
+    drew on."""
     model = result.model
     outs = model.outputs
     recs = list(recordings if recordings is not None else result.recordings)
@@ -46,33 +59,40 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
         axes = list(np.atleast_1d(ax))
         sim = result.simulate(recs[0])
         for a, c in zip(axes, outs):
-            overlay(a, recs[0], sim[:, model.states.index(c)], c, f"{recs[0].name}: {c}")
+            overlay(a, recs[0], sim[:, model.states.index(c)], c, f"{recs[0].name}: {c}", model)
         return ax
-    ncols = len(outs) + 2
-    fig, axes = _figure(2 * len(recs), ncols, (4.2 * ncols, 6.5 * len(recs)), path is not None)
-    for r, rec in enumerate(recs):
+    shown = recs[:MAX_RECORDINGS]
+    history = convergence and np.any(np.isfinite(result.history))
+    ncols = len(outs) + (1 if model.inputs else 0) + (1 if history else 0)
+    fig, axes = _figure(2 * len(shown), ncols, (3.6 * ncols, 4.6 * len(shown)), path is not None)
+    for r, rec in enumerate(shown):
         top, bottom = axes[2 * r], axes[2 * r + 1]
         sim = result.simulate(rec)
         for j, c in enumerate(outs):
             y = sim[:, model.states.index(c)]
-            overlay(top[j], rec, y, c, f"{rec.name}: {c}")
+            overlay(top[j], rec, y, c, f"{rec.name}: {c}", model)
             bottom[j].plot(rec.t, y - rec[c], "b-", lw=0.8)
             bottom[j].axhline(0.0, color="k", lw=0.5)
-            bottom[j].set(xlabel="t (s)", ylabel=f"residual {_label(c)}")
-        for _k, c in enumerate(model.inputs):
-            top[len(outs)].plot(rec.t, rec[c], lw=1, label=c)
-        top[len(outs)].set(xlabel="t (s)", ylabel="input", title="inputs")
+            bottom[j].set(xlabel="t (s)", ylabel=f"residual {_label(c, model)}")
+        col = len(outs)
         if model.inputs:
-            top[len(outs)].legend()
-        bottom[len(outs)].axis("off")
-        if r == 0 and np.any(np.isfinite(result.history)):
-            for h in result.history:
-                top[-1].semilogy(np.arange(1, h.size + 1), h, lw=0.7)
-            top[-1].set(xlabel="iteration", ylabel="best OF", title=f"convergence ({len(result.history)} runs)")
-        else:
-            top[-1].axis("off")
-        bottom[-1].axis("off")
+            for c in model.inputs:
+                top[col].plot(rec.t, rec[c], lw=1, label=_label(c, model))
+            top[col].set(xlabel="t (s)", ylabel=", ".join(_label(c, model) for c in model.inputs), title="inputs")
+            top[col].legend()
+            bottom[col].axis("off")
+            col += 1
+        if history:
+            if r == 0:
+                for h in result.history:
+                    top[col].semilogy(np.arange(1, h.size + 1), h, lw=0.7)
+                top[col].set(xlabel="iteration", ylabel="best OF", title=f"convergence ({len(result.history)} runs)")
+            else:
+                top[col].axis("off")
+            bottom[col].axis("off")
+    if len(recs) > len(shown):
+        fig.suptitle(f"the first {len(shown)} of {len(recs)} recordings")
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=90)
     return fig

@@ -63,7 +63,7 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
         elif u is not None:
             se = u.se[n]
             rel = f" ({100 * se / abs(v):.2f}%)" if v else ""
-            text += f" +/- {se:.3g}{rel}"
+            text += f" +/- {se:.3g}{rel}" if np.isfinite(se) else " +/- -"
         text += f" {unit}" if unit else ""
         if n in at_bound:
             text += "  [at bound]"
@@ -71,7 +71,7 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
             text += f"  [{u.verdict[n]}: {u.reason[n]}]"
         lines.append(text)
     if u is None:
-        lines.append("    (standard errors: call result.uncertainty(), or dcjax fit --uncertainty)")
+        lines.append("    (standard errors: call result.uncertainty(), dcjax fit --uncertainty or dcjax report RESULT.json --uncertainty)")
     else:
         pairs = u.strong_correlations(correl_threshold)
         lines.append(f"[[Correlations]] (unreported correlations are < {correl_threshold:.3f})")

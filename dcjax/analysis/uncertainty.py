@@ -52,12 +52,17 @@ class Uncertainty:
         return sorted(pairs, key=lambda p: -abs(p[2]))
 
     def table(self) -> str:
+        """One row per parameter; a dash where no finite standard error exists (a null direction)."""
         lines = [f"{'param':>6} {'value':>13} {'std. error':>11} {'rel.':>8} {'95 % interval':>29}  verdict"]
         for n in self.params:
             v, s = self.params[n], self.se[n]
-            rel = s / abs(v) if v else np.inf
             lo, hi = self.ci95[n]
-            lines.append(f"{n:>6} {v:13.6g} {s:11.3g} {rel:8.1e} [{lo:13.6g}, {hi:13.6g}]  {self.verdict[n]} ({self.reason[n]})")
+            if np.isfinite(s):
+                rel = s / abs(v) if v else np.inf
+                cols = f"{s:11.3g} {rel:8.1e} [{lo:13.6g}, {hi:13.6g}]"
+            else:
+                cols = f"{'-':>11} {'-':>8} {'-':>29}"
+            lines.append(f"{n:>6} {v:13.6g} {cols}  {self.verdict[n]} ({self.reason[n]})")
         return "\n".join(lines)
 
 
@@ -153,6 +158,9 @@ def uncertainty(
             verdict[n], reason[n] = WEAK, f"correlation {corr[k, j]:+.3f} with {free_names[j]}"
         else:
             verdict[n], reason[n] = WELL, f"relative std. error {rel:.1e}"
+    # A parameter in a null direction has no finite standard error (the pseudo-inverse's 1e-20
+    # would be a number without meaning): NaN, printed as a dash, and no interval.
+    se = np.where([reason[n] == "in a null direction of the Jacobian" for n in free_names], np.nan, se)
     se_all = np.zeros(len(names))
     se_all[fidx] = se
     corr_all = np.zeros((len(names), len(names)))

@@ -108,6 +108,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     f.add_argument("--precision", default=None, help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)")
     f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
+    f.add_argument(
+        "--plots",
+        default=None,
+        choices=["each", "summary", "none"],
+        help="with --each: a fit.png per file (each), only summary.png (summary, the default: a file's plot costs more than its "
+        "search at --runs 2), or none",
+    )
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
     f.add_argument(
         "--progress",

@@ -77,6 +77,9 @@ def _baseline_input(path: str, t, name: str):
         tb, ub = np.atleast_1d(table["t"]), np.atleast_1d(table[name])
         if not (np.all(np.isfinite(tb)) and np.all(np.isfinite(ub)) and np.all(np.diff(tb) > 0)):
             raise ValueError(f"--baseline {path}: t must increase and t, {name} be finite")
+        if tb[-1] - tb[0] < t[-1] - 1e-9 * (t[1] - t[0]):
+            print(f"note: --baseline {path} lasts {tb[-1] - tb[0]:g} s, shorter than the design's {t[-1]:g} s: its last level "
+                  f"{ub[-1]:g} is held to the end")  # fmt: skip
         return ub[np.clip(np.searchsorted(tb - tb[0], t + 1e-9 * (t[1] - t[0]), side="right") - 1, 0, len(tb) - 1)]
     if len(cols) == 1 and np.atleast_1d(table[cols[0]]).shape == t.shape:
         return np.atleast_1d(table[cols[0]])

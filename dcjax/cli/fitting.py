@@ -2,6 +2,7 @@
 
 import dataclasses
 import sys
+import time
 from pathlib import Path
 
 from ..io.units import parse_mapping
@@ -144,7 +145,12 @@ def bound_hints(result) -> list[str]:
         k = result.names.index(n)
         v = result.best_values[n]
         if abs(v - lo[k]) <= abs(v - hi[k]):
-            if lo[k] == 0:
+            if lo[k] == 0 and n in result.model.required:
+                out.append(
+                    f"hint: {n} ended at 0, its lower bound, but the model's physics needs it (not zero): the fit failed to explain "
+                    f"the data; check the data checks, units and scales (--scale), or the model"
+                )
+            elif lo[k] == 0:
                 out.append(
                     f"hint: {n} ended at 0, its lower bound: this recording does not need the term, or {n} is not identifiable from it"
                 )
@@ -192,7 +198,8 @@ def _print_fit(result, recs, args, model, out):
         print(line)
     s = result.stats
     print(f"OF best {s['best']:.4e}  worst {s['worst']:.4e}  mean {s['mean']:.4e}  std {s['std']:.4e}")
-    print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
+    if truth:  # simulated, noise-free data: an exact fit means something
+        print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{args.runs}")
     if result.duplicates is not None:
         d = result.duplicates
         print(
@@ -202,15 +209,30 @@ def _print_fit(result, recs, args, model, out):
         print(result.uncertainties.table())
     for line in bound_hints(result):
         print(line)
+    from ..analysis.checks import fit_findings
+
+    for f in [*result.checks, *(g for r in recs for g in fit_findings(result, r))]:
+        print(f"check {f}")
     print(
         f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}"
     )
 
 
-def _save(result, out: Path) -> None:
+def _save(result, out: Path, plot: bool = True) -> None:
     out.mkdir(parents=True, exist_ok=True)
     result.to_json(out / "result.json")
-    result.plot(out / "fit.png")
+    if plot:
+        result.plot(out / "fit.png")
+
+
+def _check_one(recs, model) -> None:
+    """The data checks of a single fit's recordings: an error finding ends the command with its
+    one line; warnings are printed by `_print_fit`."""
+    from ..fitting.fit import recording_findings
+
+    errors = [f for f in recording_findings(recs, model) if f.severity == "error"]
+    if errors:
+        raise ValueError(f"data check {errors[0].label}: {errors[0].message}")
 
 
 def fit(args) -> int:
@@ -220,7 +242,10 @@ def fit(args) -> int:
     options = _options(args, model)
     if args.each:
         return fit_each_cmd(args, model, options)
+    if args.plots is not None:
+        raise ValueError("--plots goes with --each (a single fit always writes fit.png)")
     recs = [_load(d, args, model) for d in args.data]
+    _check_one(recs, model)
     result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
     out = Path(args.out)
     _save(result, out)
@@ -228,44 +253,158 @@ def fit(args) -> int:
     return 0
 
 
+COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
+                  "/jax/core/compile/backend_compile_duration")  # fmt: skip
+
+
+class _Split:
+    """Where an --each command's wall time goes (its last line). JAX's compilation (tracing,
+    lowering, XLA), wherever it happens (the first estimate's scoring, the search, the summary's
+    simulations), is counted as `compile` (`jax.monitoring`), the rest of each phase as the phase."""
+
+    def __init__(self):
+        self.seconds = {"load+checks": 0.0, "estimate": 0.0, "compile": 0.0, "search": 0.0, "write+plots": 0.0}
+        self._compiled = 0.0
+
+    def _listen(self, event: str, duration: float, **_) -> None:
+        if event in COMPILE_EVENTS:
+            self._compiled += duration
+
+    def __enter__(self):
+        import jax.monitoring
+
+        jax.monitoring.register_event_duration_secs_listener(self._listen)
+        self._t, self._c = time.perf_counter(), 0.0
+        return self
+
+    def __exit__(self, *exc):
+        import jax.monitoring
+
+        jax.monitoring.unregister_event_duration_listener(self._listen)
+
+    def add(self, part: str) -> None:
+        """The time since the last call (or the start) goes to `part`, its compilation to `compile`."""
+        t, c = time.perf_counter(), self._compiled
+        compiled = c - self._c
+        self.seconds["compile"] += compiled
+        self.seconds[part] += max(0.0, t - self._t - compiled)
+        self._t, self._c = t, c
+
+    def line(self, n: int) -> str:
+        return f"{n} files: " + ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items())
+
+
+def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
+    from ..fitting.each import FailedFit
+
+    status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"
+    return f"[{k}/{n}] {name}: {status}, {seconds:.2f} s, {n - k} left"
+
+
 def fit_each_cmd(args, model, options) -> int:
     """`dcjax fit --each`: one fit per file (`dcjax.fitting.fit_each`: the files of one length in
-    one compiled call); a file that fails to load, validate or fit is reported and the others are
-    fitted."""
+    one compiled call); a file that fails to load, fails a data check or fails to fit is reported
+    and the others are fitted. One line per finished file on stderr (a bar on a terminal); the
+    last line splits the wall time."""
+
+    with _Split() as split:
+        return _fit_each_files(args, model, options, split)
+
+
+def _fit_each_files(args, model, options, split: "_Split") -> int:
+    from ..analysis.checks import ERROR, check_recording, fleet_findings
     from ..fitting.each import FailedFit, fit_each, summary_rows, write_summary
-    from ..simulation.problem import make_problem
 
     out = Path(args.out)
-    results: list = [None] * len(args.data)
-    ready = []  # (index, recording, parameters)
+    plots = args.plots or "summary"
+    n = len(args.data)
+    results: list = [None] * n
+    loaded = []  # (index, recording)
     for k, data in enumerate(args.data):
         label = Path(data).stem if Path(data).exists() else data
         try:
-            rec = _prepared(_load(data, args, model), args, model)
-            make_problem(rec, model=model)  # what a fit would refuse, before the first estimate of --bounds auto
-            ready.append((k, rec, _file_params(args, model, rec)))
+            loaded.append((k, _prepared(_load(data, args, model), args, model)))
         except Exception as e:  # one broken file fails alone, whatever broke
-            results[k] = FailedFit(name=label, error=(str(e).splitlines() or [type(e).__name__])[0], source=data)
-    fitted = fit_each([r for _, r, _ in ready], model, [p for *_, p in ready], **options) if ready else []
-    for (k, *_), res in zip(ready, fitted):
+            results[k] = _failed_file(label, e, data)
+    ready = []  # (index, recording, findings)
+    for (k, rec), fleet in zip(loaded, fleet_findings([r for _, r in loaded], model)):
+        findings = check_recording(rec, model) + fleet
+        errors = [f for f in findings if f.severity == ERROR]
+        if errors:
+            results[k] = FailedFit(rec.name, f"{errors[0].label}: {errors[0].message}", args.data[k], checks=findings)
+        else:
+            ready.append((k, rec, findings))
+    split.add("load+checks")
+    prepared = []
+    for k, rec, findings in ready:
+        try:
+            prepared.append((k, rec, findings, _file_params(args, model, rec)))
+        except Exception as e:
+            results[k] = _failed_file(rec.name, e, args.data[k], findings)
+    split.add("estimate")
+    fitted = fit_each([r for _, r, _, _ in prepared], model, [p for *_, p in prepared], **options) if prepared else []
+    split.add("search")
+    for (k, _, findings, _), res in zip(prepared, fitted):
+        res.checks = findings
         results[k] = res if not isinstance(res, FailedFit) else dataclasses.replace(res, source=args.data[k])
+    bar = _file_bar(n, args)
     names: dict[str, int] = {}
-    for result in results:
+    for k, result in enumerate(results, start=1):
+        t_file = time.perf_counter()
         if isinstance(result, FailedFit):
             print(f"{result.name}: failed: {result.error}")
-            continue
-        label = result.recording.name
-        n = names.get(label, 0)
-        names[label] = n + 1
-        folder = out / (label if n == 0 else f"{label}_{n + 1}")
-        if args.uncertainty:
-            result = result.uncertainty()
-        _save(result, folder)
-        at = result.at_bound()
-        print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "") + f"; wrote {folder}")
+        else:
+            label = result.recording.name
+            c = names.get(label, 0)
+            names[label] = c + 1
+            folder = out / (label if c == 0 else f"{label}_{c + 1}")
+            if args.uncertainty:
+                result = results[k - 1] = result.uncertainty()
+            _save(result, folder, plot=plots == "each")
+            at = result.at_bound()
+            warn = [f.label for f in result.checks]
+            print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "")
+                  + (f"; checks: {' '.join(warn)}" if warn else "") + f"; wrote {folder}")  # fmt: skip
+        bar(
+            _progress_line(
+                k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result, time.perf_counter() - t_file
+            )
+        )
+    bar(None)
     rows = summary_rows(results, model)
-    csv_path, png = write_summary(rows, out, model)
+    csv_path, png = write_summary(rows, out, model, plot=plots != "none")
     ok = sum(r["status"] == "ok" for r in rows)
     flagged = [r["name"] for r in rows if r.get("outlier")]
-    print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {csv_path} and {png}")
+    split.add("write+plots")
+    wrote = f"{csv_path} and {png}" if plots != "none" else f"{csv_path}"
+    print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {wrote}")
+    print(split.line(n))
     return 0 if ok == len(rows) else 1 if ok else 2
+
+
+def _failed_file(label: str, e: Exception, source: str, findings=None):
+    from ..analysis.checks import from_error
+    from ..fitting.each import FailedFit
+
+    named = from_error(e)
+    error = (str(e).splitlines() or [type(e).__name__])[0]
+    return FailedFit(label, error, source, checks=list(findings or []) + ([named] if named is not None else []))
+
+
+def _file_bar(n: int, args):
+    """A per-file reporter: a tqdm bar on a terminal (or with --progress), else one line per file
+    on stderr; called with a line per finished file, then None."""
+    tty = sys.stderr.isatty() if args.progress is None else bool(args.progress)
+    if not tty:
+        return lambda line: None if line is None else print(line, file=sys.stderr, flush=True)
+    from tqdm import tqdm
+
+    bar = tqdm(total=n, unit="file", desc="files", leave=False, dynamic_ncols=True)
+
+    def report(line):
+        if line is None:
+            bar.close()
+        else:
+            bar.update(1)
+
+    return report

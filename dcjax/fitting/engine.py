@@ -262,9 +262,11 @@ def settings_of(setup: Setup, search: Search) -> dict:
 
 
 def _source(r: Recording):
-    """Where a recording came from (its loader's record, else its name), with the limit fitted."""
+    """Where a recording came from (its loader's record, else its name), with the limit fitted and
+    each channel's peak (so a validation can tell a unit or scale slip)."""
     src = r.metadata.get("source", {"name": r.name})
-    return {**src, "limit": r.limit} if isinstance(src, dict) else src
+    peaks = {c: float(np.max(np.abs(v))) for c, v in r.channels.items()}
+    return {**src, "limit": r.limit, "peaks": peaks} if isinstance(src, dict) else src
 
 
 # -- the compiled runs ---------------------------------------------------------------------------

@@ -82,8 +82,25 @@ def fit(
     search = search_of(method, runs, budget, generations, seed, memory, polish)
     resolved = resolve_parameters(params, recordings, m)
     if isinstance(integrator, AutoSubsteps):
-        return fit_auto_substeps(recordings, m, resolved, integrator, search, progress)
-    return fit_setup(prepare(recordings, m, resolved, integrator), search, progress)
+        result = fit_auto_substeps(recordings, m, resolved, integrator, search, progress)
+    else:
+        result = fit_setup(prepare(recordings, m, resolved, integrator), search, progress)
+    result.checks = recording_findings(recordings, m)
+    return result
+
+
+def recording_findings(recordings: list[Recording], model: Model) -> list:
+    """The data checks of every recording of a fit (`dcjax.analysis.checks`), each message
+    prefixed with its recording's name in a joint fit."""
+    import dataclasses
+
+    from ..analysis.checks import check_recording
+
+    out = []
+    for r in recordings:
+        for f in check_recording(r, model):
+            out.append(f if len(recordings) == 1 else dataclasses.replace(f, message=f"{r.name}: {f.message}"))
+    return out
 
 
 def fit_auto_substeps(recordings, model, params: Parameters, auto: AutoSubsteps, search: Search, progress=None) -> FitResult:

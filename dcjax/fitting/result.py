@@ -7,15 +7,20 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import equinox as eqx
 import numpy as np
 
+from ..analysis.checks import Finding
 from ..io.recording import Recording
 from ..models import Model, get_model, model_spec
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space, make_space
 from ..simulation.integrators import Integrator, get_integrator
+from ..simulation.objectives import simulate
 from ..simulation.problem import make_problem
+
+_simulate = eqx.filter_jit(simulate)  # one compile per problem structure and length, not one per call
 
 if TYPE_CHECKING:
     from ..analysis.uncertainty import Uncertainty
@@ -42,6 +47,7 @@ class FitResult:
     model: Model = dataclasses.field(default_factory=get_model, repr=False)
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)
     integrator: Integrator | None = dataclasses.field(default=None, repr=False)  # None: from the settings
+    checks: list = dataclasses.field(default_factory=list)  # data-check findings (`dcjax.analysis.checks.Finding`)
     _uncertainty: object = dataclasses.field(default=None, repr=False)
 
     @property
@@ -201,6 +207,7 @@ class FitResult:
             se = None
             if u is not None and n not in self.fixed:
                 se = float(u.se[n])  # pyright: ignore[reportAttributeAccessIssue]
+                se = se if np.isfinite(se) else None  # a null direction: no standard error
             out.append(
                 Parameter(n, value=self.best_values[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
                           unit=self.model.units.get(n, ""), precision=prec.get(n), stderr=se)
@@ -268,6 +275,7 @@ class FitResult:
                 "aic": self.aic,
                 "bic": self.bic,
             },
+            "checks": [f.to_dict() for f in self.checks],
             "history_best": [float(np.nanmin(h)) if np.any(np.isfinite(h)) else None for h in self.history],
             "dcjax_version": __version__,
         }
@@ -280,10 +288,8 @@ class FitResult:
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
         """(N, S) states of the best parameters on `recording` (default: the fitted one)."""
-        from ..simulation.objectives import simulate
-
         prob = self.problems([recording or self.recording])[0]
-        return np.asarray(simulate(np.array([self.best_values[n] for n in self.names]), prob))
+        return np.asarray(_simulate(np.array([self.best_values[n] for n in self.names]), prob))
 
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
@@ -349,4 +355,5 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
         recordings=list(recordings),
         model=m,
         fixed={k: float(v) for k, v in (d.get("fixed") or {}).items()},
+        checks=[Finding(**f) for f in d.get("checks") or []],
     )

@@ -19,6 +19,15 @@ COLUMNS = ("t", "u_a", "i_a", "omega")
 DC_CHANNELS = COLUMNS[1:]
 
 
+class DataError(ValueError):
+    """A recording's data break a check (`check`: its name, e.g. "nan", "time", "dead"); a one-line
+    error that names the check."""
+
+    def __init__(self, check: str, message: str):
+        super().__init__(f"{check}: {message}")
+        self.check = check
+
+
 class Recording:
     """A validated response: strictly increasing time `t` (s), equally long finite channels,
     the clamp `limit` on the model's `limited_state` (for the DC models the supply's current
@@ -66,12 +75,12 @@ class Recording:
         for col, a in arrays.items():
             bad = np.flatnonzero(~np.isfinite(a))
             if bad.size:
-                raise ValueError(f"{self._where()}column {col!r} has NaN/inf at row {int(bad[0])} ({bad.size} in all)")
+                raise DataError("nan", f"{self._where()}column {col!r} has NaN/inf at row {int(bad[0])} ({bad.size} in all)")
         tt = arrays.pop("t")
         dt = np.diff(tt)
         if np.any(dt <= 0):
             k = int(np.flatnonzero(dt <= 0)[0])
-            raise ValueError(f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
+            raise DataError("time", f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
         if i_a_limit is not None:
             warn_deprecated("Recording(i_a_limit=)", "Recording(limit=)")
         if limit is not None and i_a_limit is not None and limit != i_a_limit:

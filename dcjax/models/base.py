@@ -22,7 +22,13 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
   the equation-error first estimate (`dcjax.initial_estimate`); without it that estimate runs
   Levenberg–Marquardt on the derivative residual;
 - `derivative_of`: states that are the time derivative of another state (`{"v": "q"}`: v = dq/dt),
-  so a first estimate can differentiate a measured position when the velocity is not measured.
+  so a first estimate can differentiate a measured position when the velocity is not measured;
+- optionally `follows`: measured channel -> the input it follows in sign (`{"omega": "u_a"}`: a
+  positive voltage drives a positive speed), so the data checks can flag reversed polarity;
+- optionally `required`: the parameters the model's physics needs (not zero), so a fit that puts
+  one on its zero bound is named a failed fit, not an unneeded term;
+- optionally `time_constants(p)`: name -> seconds (DC: La/Ra), so a sample interval longer than
+  a time constant can be flagged after the fit.
 """
 
 from collections.abc import Mapping
@@ -49,6 +55,8 @@ class Model(eqx.Module):
     limited_state: ClassVar[str | None] = None
     quantities: ClassVar[dict[str, str]] = {}  # channel -> quantity ("voltage", ...) for unit conversion
     derivative_of: ClassVar[dict[str, str]] = {}  # state -> the state it is the time derivative of
+    follows: ClassVar[dict[str, str]] = {}  # measured channel -> the input it follows in sign
+    required: ClassVar[tuple[str, ...]] = ()  # parameters the physics needs (a zero is a failed fit)
 
     # -- what a model defines -------------------------------------------------------------
     def coefficients(self, p: dict[str, Array]) -> Any:
@@ -63,6 +71,10 @@ class Model(eqx.Module):
         `(columns, rhs, mass)` with sum_k theta_k columns[k] = rhs, and `mass` the parameter that
         multiplies the state's derivative (it scales the equation's error). None: not linear."""
         return None
+
+    def time_constants(self, p: dict[str, float]) -> dict[str, float]:
+        """Name -> a time constant (s) of the model at `p` that the sampling must resolve."""
+        return {}
 
     def steady_state(self, p: dict[str, float], channels: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Channel values the model predicts in stationary operation from the other channels."""

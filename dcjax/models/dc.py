@@ -111,6 +111,8 @@ class DC(Model):
     precision: ClassVar[dict[str, float] | None] = TABLE29_PRECISION
     limited_state: ClassVar[str | None] = "i_a"
     quantities: ClassVar[dict[str, str]] = {"u_a": "voltage", "i_a": "current", "omega": "angular speed"}
+    follows: ClassVar[dict[str, str]] = {"i_a": "u_a", "omega": "u_a"}  # a positive voltage drives positive current and speed
+    required: ClassVar[tuple[str, ...]] = ("Ra", "La", "cm", "J")  # the back-EMF, inertia and winding are never zero
 
     @property
     def name(self) -> str:
@@ -127,6 +129,10 @@ class DC(Model):
 
     def load_torque(self, p, w):
         return p["Tla"] + p["Tlb"] * w + p["Tlc"] * w * w
+
+    def time_constants(self, p):
+        """The electrical time constant La/Ra (eq. 8)."""
+        return {"La/Ra": float(p["La"]) / float(p["Ra"])} if float(p["Ra"]) > 0 else {}
 
     def load_regressors(self, w):
         """The columns of Tla, Tlb, Tlc in the load torque (eq. 5): 1, w, w^2."""

@@ -7,7 +7,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..deprecation import warn_deprecated
-from ..io.recording import Recording
+from ..io.recording import DataError, Recording
 from ..models import Model, get_model
 from .integrators import RK4, Integrator, get_integrator
 
@@ -105,7 +105,7 @@ def make_problem(
     peak = np.max(np.abs(y), axis=0)
     for c, m in zip(outs, peak):
         if not m > 0:
-            raise ValueError(f"{recording._where()}column {c!r} is all zero (the objective divides by its maximum)")
+            raise DataError("dead", f"{recording._where()}column {c!r} is all zero (the objective divides by its maximum)")
     init = dict(initial or {})
     bad = [s for s in init if s not in model.states]
     if bad:

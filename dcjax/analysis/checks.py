@@ -1,0 +1,190 @@
+"""Data checks: what makes a recording unfit to identify from, found before (and after) its fit.
+
+Each finding names its check and has a severity: an `error` fails the recording alone with one
+line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists them in `checks`).
+
+| check         | severity | rule                                                                         |
+|---------------|----------|------------------------------------------------------------------------------|
+| `nan`         | error    | a NaN/inf in a column (raised by `Recording`)                                |
+| `time`        | error    | times not strictly increasing, duplicates included (raised by `Recording`)  |
+| `dead`        | error    | a measured channel all zero (the objective divides by its peak)              |
+| `alternating` | error    | among consecutive samples both above 10 % of the peak, > 25 % change sign    |
+| `near-dead`   | warning  | peak within 5 noise steps (MAD of differences) or 3 quantisation steps of 0, |
+|               |          | or below 5 % of the fleet's median peak of that channel (`fleet_findings`)   |
+| `reversed`    | warning  | a channel the model says follows an input (`Model.follows`) opposes it:      |
+|               |          | cos(u, y) = sum(u y) / (|u| |y|) < -0.5                                      |
+| `saturated`   | warning  | held exactly at its extreme for >= max(5, 2 %) samples, entered steeply: the |
+|               |          | change over the 3 samples before is >= 20 % of the channel's steepest such   |
+|               |          | change and > 3 quantisation steps (not an approach to a steady state)        |
+| `gap`         | warning  | sample intervals longer than 5x the median                                   |
+| `slow-rate`   | warning  | after the fit: the median sample interval exceeds a time constant of the     |
+|               |          | fitted model (`Model.time_constants`; DC: La/Ra)                             |
+| `no-follow`   | warning  | after the fit: fit % <= 0 on a channel (the model does not follow it)        |
+"""
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..io.recording import DataError, Recording
+from ..models import Model
+
+ERROR, WARNING = "error", "warning"
+
+
+@dataclasses.dataclass(frozen=True)
+class Finding:
+    """One check's finding on a recording: `check` (its name), `severity` ("error" or
+    "warning"), the `channel` it concerns (or None) and a one-line `message`."""
+
+    check: str
+    severity: str
+    message: str
+    channel: str | None = None
+
+    @property
+    def label(self) -> str:
+        """`check:channel` (or `check`), as `summary.csv` lists it."""
+        return self.check if self.channel is None else f"{self.check}:{self.channel}"
+
+    def __str__(self) -> str:
+        return f"{self.severity}: {self.label}: {self.message}"
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def from_error(error: Exception) -> Finding | None:
+    """The finding a `DataError` carries (NaN, bad times, a dead channel), else None."""
+    if isinstance(error, DataError):
+        return Finding(error.check, ERROR, str(error).partition(": ")[2] or str(error))
+    return None
+
+
+def noise_step(y: np.ndarray) -> float:
+    """The channel's sample-to-sample noise: 1.4826 MAD of its first differences / sqrt(2)."""
+    d = np.diff(y)
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
+
+
+def quantisation_step(y: np.ndarray) -> float:
+    """The smallest non-zero difference between the channel's distinct values (0: none)."""
+    v = np.unique(y)
+    d = np.diff(v)
+    d = d[d > 0]
+    return float(d.min()) if d.size else 0.0
+
+
+def _cos(a: np.ndarray, b: np.ndarray) -> float:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    return float(a @ b / (na * nb)) if na > 0 and nb > 0 else 0.0
+
+
+def _alternating(y: np.ndarray, peak: float) -> Finding | None:
+    big = np.abs(y) > 0.1 * peak
+    both = big[:-1] & big[1:]
+    if both.sum() < 10:
+        return None
+    flips = (np.sign(y[:-1]) != np.sign(y[1:])) & both
+    share = flips.sum() / both.sum()
+    if share > 0.25:
+        return Finding("alternating", ERROR, f"the sign changes between {100 * share:.0f} % of consecutive samples", None)
+    return None
+
+
+def _saturated(y: np.ndarray, peak: float) -> Finding | None:
+    k = int(np.argmax(np.abs(y)))
+    ext = y[k]
+    at = np.abs(y - ext) <= 1e-12 * abs(ext)
+    runs = np.diff(np.concatenate([[0], at.astype(int), [0]]))
+    starts, ends = np.flatnonzero(runs == 1), np.flatnonzero(runs == -1)
+    length = ends - starts
+    j = int(np.argmax(length))
+    need = max(5, int(np.ceil(0.02 * y.size)))
+    if length[j] < need or starts[j] < 3:
+        return None
+    entry = abs(y[starts[j]] - y[starts[j] - 3])
+    steepest = float(np.max(np.abs(y[3:] - y[:-3])))
+    if entry < 0.2 * steepest or entry <= 3 * quantisation_step(y):  # an approach to a steady state, or a quantised one
+        return None
+    return Finding("saturated", WARNING, f"held at {ext:.6g} for {int(length[j])} samples from t index {int(starts[j])} (clipped?)")
+
+
+def check_recording(recording: Recording, model: Model) -> list[Finding]:
+    """The findings on one recording for `model` (module docstring), before any fit."""
+    out: list[Finding] = []
+    t = recording.t
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    long = dt > 5 * med
+    if np.any(long):
+        k = int(np.argmax(dt))
+        out.append(Finding("gap", WARNING, f"{int(long.sum())} sample interval(s) longer than 5x the median {med:.3g} s "
+                                           f"(the longest {dt[k]:.3g} s at t = {t[k]:.6g} s)"))  # fmt: skip
+    for c in model.outputs:
+        if c not in recording.channels:
+            continue
+        y = np.asarray(recording[c], float)
+        peak = float(np.max(np.abs(y)))
+        if peak == 0:
+            out.append(Finding("dead", ERROR, f"column {c!r} is all zero", c))
+            continue
+        flips = _alternating(y, peak)
+        if flips is not None:  # (an alternating channel also looks like noise to the near-dead rule)
+            out.append(dataclasses.replace(flips, channel=c))
+            continue
+        step, q = noise_step(y), quantisation_step(y)
+        if peak <= 5 * step or peak <= 3 * q:
+            out.append(Finding("near-dead", WARNING, f"peak {peak:.3g} is within a few noise/quantisation steps of zero "
+                                                     f"(noise {step:.2g}, step {q:.2g}): a sensor that is all but dead", c))  # fmt: skip
+            continue
+        saturated = _saturated(y, peak)
+        if saturated is not None:
+            out.append(dataclasses.replace(saturated, channel=c))
+        source = model.follows.get(c)
+        if source is not None and source in recording.channels:
+            cos = _cos(np.asarray(recording[source], float), y)
+            if cos < -0.5:
+                out.append(Finding("reversed", WARNING, f"{c} opposes {source} (cos {cos:+.2f}) where the model says it follows it: "
+                                                        "wired or signed in reverse?", c))  # fmt: skip
+    return out
+
+
+def fleet_findings(recordings: Sequence[Recording], model: Model, ratio: float = 0.05) -> list[list[Finding]]:
+    """Per recording, a `near-dead` warning for a channel whose peak is below `ratio` of the
+    fleet's median peak of that channel (needs 4 recordings)."""
+    out: list[list[Finding]] = [[] for _ in recordings]
+    if len(recordings) < 4:
+        return out
+    for c in model.outputs:
+        peaks = np.array([float(np.max(np.abs(r[c]))) if c in r.channels else np.nan for r in recordings])
+        med = float(np.nanmedian(peaks))
+        for k, p in enumerate(peaks):
+            if np.isfinite(p) and 0 < p < ratio * med:
+                out[k].append(
+                    Finding("near-dead", WARNING, f"peak {p:.3g} is {100 * p / med:.1f} % of the fleet's median peak {med:.3g}", c)
+                )
+    return out
+
+
+def fit_findings(result, recording: Recording | None = None, fits: dict[str, float] | None = None) -> list[Finding]:
+    """After a fit: `slow-rate` (a sample interval longer than a time constant of the fitted
+    model) and `no-follow` (fit % <= 0 on a channel; `fits` as `channel_fit` gives them)."""
+    rec = recording if recording is not None else result.recording
+    out: list[Finding] = []
+    if rec is None:
+        return out
+    dt = float(np.median(np.diff(rec.t)))
+    for name, tau in result.model.time_constants(result.best_values).items():
+        if np.isfinite(tau) and dt > tau:
+            out.append(Finding("slow-rate", WARNING, f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: "
+                                                     f"{name.split('/')[0]} cannot be resolved at this rate"))  # fmt: skip
+    if fits is None:
+        from .report import channel_fit
+
+        fits = channel_fit(result, rec)
+    for c, v in fits.items():
+        if not v > 0:
+            out.append(Finding("no-follow", WARNING, f"fit % {v:.1f} <= 0: the model does not follow {c}", c))
+    return out

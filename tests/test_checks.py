@@ -1,0 +1,210 @@
+"""A lab's folder: data checks name every broken recording and no clean one, the outlier rule
+finds bad fits and not numerical zeros, `--each` reports per file and splits its time, validation
+reads files as the fit did, and verdicts and figures say what they mean."""
+
+import csv
+import dataclasses
+import json
+import re
+from pathlib import Path
+
+import equinox as eqx
+import numpy as np
+import pytest
+
+import dcjax
+from dcjax import cli, datasets
+from dcjax.analysis.checks import check_recording, fleet_findings, from_error
+from dcjax.fitting.each import outlier_flags, robust_outliers
+from experiments.synthetic_fleet import EXPECTED, write_fleet
+
+
+@pytest.fixture(scope="module")
+def fleet(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fleet")
+    return folder, write_fleet(folder, clean=20, samples=665)
+
+
+def _findings(folder: Path, kinds: dict[str, str]) -> dict[str, list]:
+    """Every file's findings before a fit: a loading error's named finding, else the checks of
+    the recording and of the fleet."""
+    model = dcjax.DC()
+    out, loaded = {}, {}
+    for name in kinds:
+        try:
+            loaded[name] = dcjax.load_recording(folder / f"{name}.csv")
+        except ValueError as e:
+            out[name] = [from_error(e)]
+    for (name, rec), extra in zip(loaded.items(), fleet_findings(list(loaded.values()), model)):
+        out[name] = check_recording(rec, model) + extra
+    return out
+
+
+def test_every_broken_recording_gets_its_named_finding_and_no_clean_one_any(fleet):
+    folder, kinds = fleet
+    found = _findings(folder, kinds)
+    for name, kind in kinds.items():
+        if kind == "clean":
+            assert found[name] == [], (name, found[name])
+        elif kind != "slow-rate":  # judged after the fit (test_each_*)
+            severity, label = EXPECTED[kind]
+            match = [f for f in found[name] if f is not None and (f.label == label or f.check == label)]
+            assert match and match[0].severity == severity, (name, found[name])
+
+
+def test_the_outlier_rule_skips_values_at_a_bound_and_flags_bad_fits():
+    @dataclasses.dataclass
+    class Fit:  # what the rule reads of a result
+        at: tuple
+        fixed: dict = dataclasses.field(default_factory=dict)
+
+        def at_bound(self, rtol):
+            return list(self.at)
+
+    rng = np.random.default_rng(0)
+    rows, fits = [], []
+    for _ in range(20):
+        zero = 10.0 ** rng.uniform(-25, -18)  # a load coefficient at its zero bound: a numerical zero
+        rows.append({"of": 1e-4 * rng.uniform(0.9, 1.1), "Ra": 4 * rng.uniform(0.9, 1.1), "Tlb": zero, "fit_i_a": 97.0})
+        fits.append(Fit(at=("Tlb",)))
+    rows[3]["of"] = 0.1  # a bad fit: its OF far above the fleet's
+    rows[5]["fit_i_a"] = -12.0  # a channel the model does not follow
+    rows[7]["Ra"] = 400.0  # an outlying value that carries information
+    flags = outlier_flags(rows, fits, ("Ra", "Tlb"))  # pyright: ignore[reportArgumentType]
+    assert flags[3] == ["of"] and flags[5] == ["fit_i_a"] and flags[7] == ["Ra"]
+    assert all(not flags[k] for k in range(20) if k not in (3, 5, 7))
+    assert not robust_outliers(np.array([1.0, 1.0, 1.1, 0.9, 1e-6]), above_only=True)[-1]  # a low OF is no bad fit
+
+
+def test_saturation_needs_a_steep_entry_and_a_quantised_plateau_is_not_one():
+    t = np.arange(400) * 1e-3
+    rise = 1 - np.exp(-t / 0.02)
+    plateau = np.round(rise * 100) / 100  # quantised steady state: many samples equal to the maximum
+    rec = dcjax.Recording(t=t, u_a=np.ones_like(t), i_a=np.exp(-t / 0.01) + 0.1, omega=plateau)
+    assert not [f for f in check_recording(rec, dcjax.DC()) if f.check == "saturated"]
+    clipped = rec.replace(i_a=np.clip(3 * np.sin(np.pi * t / 0.4), -1.5, 1.5))  # a half sine clipped at half its peak
+    assert [f.label for f in check_recording(clipped, dcjax.DC()) if f.check == "saturated"] == ["saturated:i_a"]
+
+
+class Product(dcjax.Model):
+    """dy/dt = u - a b y: a and b only as their product (a null direction of the Jacobian)."""
+
+    names = ("a", "b")
+    states = ("y",)
+    inputs = ("u",)
+
+    def vector_field(self, c, u, y):
+        return (u[0] - c["a"] * c["b"] * y[0],)
+
+
+def test_a_parameter_in_a_null_direction_prints_a_dash_not_a_standard_error():
+    from dcjax.analysis.uncertainty import uncertainty
+
+    t = np.arange(200) * 1e-2
+    m = Product()
+    rec0 = dcjax.Recording(t=t, u=np.ones_like(t), y=np.ones_like(t))
+    y = np.asarray(dcjax.simulate({"a": 2.0, "b": 1.5}, dcjax.make_problem(rec0, model=m, initial={"y": 0.0})))[:, 0]
+    rec = rec0.replace(y=y + 1e-3 * np.sin(37 * t))
+    prob = dcjax.make_problem(rec, model=m)
+    u = uncertainty(np.array([2.0, 1.5]), prob, dcjax.Bounds([0.1, 0.1], [10.0, 10.0], ("a", "b")))
+    assert all(np.isnan(u.se[n]) for n in "ab") and all(u.verdict[n].startswith("not identifiable") for n in "ab")
+    rows = u.table().splitlines()[1:]
+    assert all(re.search(r"\s-\s+-\s+-\s", r) for r in rows), rows
+
+
+def test_fit_png_of_a_joint_fit_stays_small_and_axes_carry_units(sd1, tmp_path):
+    r = dcjax.fit(sd1, params="table4", runs=1, budget=140)
+    many = dataclasses.replace(r, recordings=[sd1] * 16)
+    fig = many.plot(tmp_path / "fit.png")
+    assert (tmp_path / "fit.png").stat().st_size <= 300_000
+    labels = {ax.get_ylabel() for ax in fig.axes}
+    assert {"i_a (A)", "omega (rad/s)", "u_a (V)"} <= labels
+    assert fig._suptitle is not None and "the first 4 of 16 recordings" in fig._suptitle.get_text()  # pyright: ignore
+
+
+@pytest.mark.slow
+def test_each_on_the_fleet_names_every_finding_flags_no_clean_one_and_splits_its_time(fleet, tmp_path, capsys):
+    folder, kinds = fleet
+    files = [str(folder / f"{n}.csv") for n in kinds]
+    rc = cli.main(["fit", "--each", *files, "--bounds", "auto", "--runs", "2", "--out", str(tmp_path), "--no-progress"])
+    assert rc == 1  # some files failed alone, the others were fitted
+    rows = {r["name"]: r for r in csv.DictReader((tmp_path / "summary.csv").open())}
+    for name, kind in kinds.items():
+        row = rows[name]
+        if kind == "clean":
+            assert row["status"] == "ok" and row["checks"] == "" and row["outlier"] == "", row
+            continue
+        severity, label = EXPECTED[kind]
+        assert label in row["checks"].split() or any(c.split(":")[0] == label for c in row["checks"].split()), row
+        assert row["status"] == ("failed" if severity == "error" else "ok"), row
+    assert any(float(rows[n]["Tlb"]) < 1e-12 for n, k in kinds.items() if k == "clean")  # Tlb fit at 0: no outlier for it
+    out, err = capsys.readouterr()
+    progress = [line for line in err.splitlines() if line.startswith("[")]
+    assert len(progress) == len(kinds) and progress[-1].endswith("0 left")
+    last = out.strip().splitlines()[-1]
+    parts = dict((k, float(v)) for k, v in re.findall(r"([a-z+]+) ([0-9.]+) s", last))
+    assert set(parts) == {"load+checks", "estimate", "compile", "search", "write+plots"}, last
+    outside = parts["load+checks"] + parts["estimate"] + parts["write+plots"]
+    assert outside <= 0.25 * sum(parts.values()), last
+    assert (tmp_path / "summary.png").is_file() and not (tmp_path / "motor000" / "fit.png").exists()  # --plots summary
+
+
+@pytest.mark.slow
+def test_validate_reads_the_file_as_the_fit_did_and_warns_of_a_scale_slip(tmp_path, capsys):
+    sd1 = datasets.load("SD1")
+    rpm = sd1["omega"] * 60 / (2 * np.pi)
+    table = np.column_stack([sd1.t * 1e3, sd1["u_a"], sd1["i_a"] * 1e3, rpm / 3.0])  # ms, V, mA, rpm behind a 3:1 gear
+    path = tmp_path / "bench.csv"
+    np.savetxt(path, table, delimiter=",", header="t,u_a,i_a,omega", comments="")
+    opts = ["--units", "t=ms,i_a=mA,omega=rpm", "--scale", "omega=3"]
+    assert cli.main(["fit", str(path), *opts, "--bounds", "table4", "--runs", "2", "--budget", "1400", "--out", str(tmp_path / "f")]) == 0
+    capsys.readouterr()
+    assert cli.main(["validate", str(tmp_path / "f" / "result.json"), str(path), "--out", str(tmp_path / "v")]) == 0
+    out, err = capsys.readouterr()
+    of_fit = dcjax.load_result(tmp_path / "f" / "result.json").of
+    of_val = json.loads((tmp_path / "v" / "validation.json").read_text())[0]["of"]
+    assert of_val == pytest.approx(of_fit, rel=1e-9) and "slip" not in err
+    assert (
+        cli.main(
+            ["validate", str(tmp_path / "f" / "result.json"), str(path), "--units", "t=ms,i_a=mA,omega=rpm", "--out", str(tmp_path / "w")]
+        )
+        == 0
+    )
+    _, err = capsys.readouterr()  # --units given, --scale forgotten: omega's peak is 1/3 of the fit's (within 10x: no warning)
+    assert "slip" not in err
+    assert cli.main(["validate", str(tmp_path / "f" / "result.json"), str(path), "--units", "t=ms", "--out", str(tmp_path / "x")]) == 0
+    _, err = capsys.readouterr()  # mA read as A: a 1000x slip
+    assert "the peak of i_a is 1e+03x the fitted recording's" in err and "unit or scale slip" in err
+
+
+def test_plots_option_and_a_progress_line_per_file(tmp_path, capsys):
+    sd = [datasets.DATA_DIR / f"SD{k}.csv" for k in (1, 2)]
+    rc = cli.main(
+        ["fit", "--each", *map(str, sd), "--runs", "1", "--budget", "140", "--plots", "none", "--out", str(tmp_path), "--no-progress"]
+    )
+    assert rc == 0 and not (tmp_path / "summary.png").exists() and not (tmp_path / "SD1" / "fit.png").exists()
+    err = capsys.readouterr().err.splitlines()
+    assert [line.split(":")[0] for line in err if line.startswith("[")] == ["[1/2] SD1", "[2/2] SD2"]
+    rc = cli.main(["fit", "--each", str(sd[0]), "--runs", "1", "--budget", "140", "--plots", "each", "--out", str(tmp_path / "e")])
+    assert rc == 0 and (tmp_path / "e" / "SD1" / "fit.png").is_file()
+    with pytest.raises(SystemExit):
+        cli.main(["fit", str(sd[0]), "--plots", "sometimes"])
+    assert cli.main(["fit", str(sd[0]), "--plots", "none", "--out", str(tmp_path / "x")]) == 2  # --plots goes with --each
+
+
+def test_a_zero_at_a_required_parameter_is_a_failed_fit_hint():
+    from dcjax.cli.fitting import bound_hints
+
+    @dataclasses.dataclass
+    class R:
+        best_values: dict
+        model: eqx.Module
+        names: tuple = dcjax.DC.names
+        bounds: object = dcjax.Bounds(np.zeros(7), np.ones(7), dcjax.DC.names)
+
+        def at_bound(self):
+            return ["cm", "Tlb"]
+
+    hints = bound_hints(R({**dict.fromkeys(dcjax.DC.names, 0.5), "cm": 0.0, "Tlb": 0.0}, dcjax.DC()))
+    assert "physics needs it" in hints[0] and "cm" in hints[0]
+    assert "does not need the term" in hints[1] and "Tlb" in hints[1]

@@ -266,9 +266,9 @@ class _Split:
         self.seconds = {"load+checks": 0.0, "estimate": 0.0, "compile": 0.0, "search": 0.0, "write+plots": 0.0}
         self._compiled = 0.0
 
-    def _listen(self, event: str, duration: float, **_) -> None:
+    def _listen(self, event: str, duration_secs: float, **_: str | int) -> None:
         if event in COMPILE_EVENTS:
-            self._compiled += duration
+            self._compiled += duration_secs
 
     def __enter__(self):
         import jax.monitoring

@@ -1,0 +1,50 @@
+"""`dcjax fit --each` on a synthetic lab folder (`experiments.synthetic_fleet`): the split of the
+wall time the command prints as its last line, and the share of the work outside the compiled
+search (loading, checks, first estimate, writing, plots). Each configuration runs in a fresh
+process with the compilation cache off (DCJAX_NO_CACHE=1), so `compile` is a cold start.
+
+    python -m experiments.bench_each [--clean 20 75] [--runs 2] [--plots summary each]
+"""
+
+import argparse
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from experiments.synthetic_fleet import write_fleet
+
+
+def run(files: list[str], out: Path, runs: int, plots: str) -> tuple[float, dict[str, float]]:
+    env = {**os.environ, "DCJAX_NO_CACHE": "1"}
+    cmd = [sys.executable, "-m", "dcjax", "fit", "--each", *files, "--bounds", "auto", "--runs", str(runs), "--plots", plots]
+    t0 = time.perf_counter()
+    p = subprocess.run([*cmd, "--out", str(out), "--no-progress"], capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - t0
+    last = p.stdout.strip().splitlines()[-1]
+    return wall, {k: float(v) for k, v in re.findall(r"([a-z+]+) ([0-9.]+) s", last)}
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--clean", type=int, nargs="+", default=[20, 75])
+    ap.add_argument("--runs", type=int, default=2)
+    ap.add_argument("--plots", nargs="+", default=["summary", "each"])
+    args = ap.parse_args()
+    for clean in args.clean:
+        with tempfile.TemporaryDirectory() as tmp:
+            kinds = write_fleet(Path(tmp) / "data", clean=clean, samples=665)
+            files = [str(Path(tmp) / "data" / f"{k}.csv") for k in kinds]
+            for plots in args.plots:
+                wall, parts = run(files, Path(tmp) / f"out-{plots}", args.runs, plots)
+                outside = parts["load+checks"] + parts["estimate"] + parts["write+plots"]
+                split = ", ".join(f"{k} {v:.1f} s" for k, v in parts.items())
+                print(f"{len(files)} files ({clean} clean), --runs {args.runs}, --plots {plots}: wall {wall:.1f} s (process); "
+                      f"{split}; outside the search {100 * outside / sum(parts.values()):.0f} %", flush=True)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

@@ -39,6 +39,7 @@ def test_information_matches_finite_differences_of_the_numpy_integrator():
     np.testing.assert_allclose(F, S.T @ S, rtol=1e-5, atol=1e-6 * np.abs(F).max())
 
 
+@pytest.mark.slow
 def test_design_respects_range_hold_and_current_limit():
     d = design_input("dc", SD1, duration=0.02, dt=1e-4, u_range=(-50.0, 150.0), hold=2e-3, limit=1.5, **TINY)
     u = d.recording.u_a

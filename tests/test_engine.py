@@ -54,6 +54,7 @@ def test_the_strategy_objects_pop_size_is_recorded_with_its_duplicate_share(sd1)
     assert r.duplicates is not None and r.duplicates["percent"] == pytest.approx(expect)
 
 
+@pytest.mark.slow
 def test_a_polish_stopped_at_its_step_limit_is_not_success(sd1):
     prob = dcjax.make_problem(sd1)
     space = dcjax.make_space(dcjax.DC(), dcjax.Bounds(*dcjax.DC().bound_arrays("table4"), dcjax.DC.names))
@@ -118,6 +119,7 @@ def test_the_package_paths_use_no_deprecated_name(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", ["own-strategy.md", "own-integrator.md"])
 def test_guide_examples_run(page):
     """The complete examples of the guide pages 'Your own strategy' and 'Your own integrator'."""

@@ -48,6 +48,7 @@ def test_precision_zero_gives_the_memory_free_path(sd1_fn, memory):
     np.testing.assert_array_equal(np.asarray(on.best_x), np.asarray(off.best_x))
 
 
+@pytest.mark.slow
 def test_precision_zero_path_under_vmap(sd1_fn):
     s = make_strategy("de-rand-1-exp")
     keys = jax.random.split(jax.random.PRNGKey(3), 3)

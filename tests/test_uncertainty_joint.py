@@ -72,6 +72,7 @@ def test_profile_likelihood_minimum_at_fit():
         profile(fit, "Rb", grid, prob, TABLE4)
 
 
+@pytest.mark.slow
 def test_result_uncertainty_method(sd1):
     r = identify(sd1, runs=2, budget=7000, seed=0, polish=True)
     r2 = r.uncertainty(profile="Ra", profile_points=3)
@@ -88,6 +89,7 @@ def _voltage_recording(u_volts, name):
     return Recording(t=t, u_a=u, i_a=traj[:, 0], omega=traj[:, 1], name=name)
 
 
+@pytest.mark.slow
 def test_joint_fit_recovers_shared_parameters():
     recs = [_voltage_recording(v, f"U{v}") for v in (220.0, 150.0, 90.0)]
     r = identify(recs, runs=2, seed=0)

@@ -1,5 +1,5 @@
 """Does a designed input help, in fact and not only in the prediction? (issue: optimal input
-design). A known motor is simulated (dcjax.io.reference: the NumPy RK4, not dcjax's integrator; 10
+design). A known motor is simulated (dcjax.io.numpy_simulator: the NumPy RK4, not dcjax's integrator; 10
 sub-steps for SD1, 1 for the current-limited MD drive, whose clamp acts after every sub-step, so
 another sub-step count would be a model error common to every input) under
 the designed input and under the paper-style 220 V step of the same length, range and sample
@@ -22,7 +22,7 @@ import numpy as np
 import dcjax
 from dcjax import Recording, datasets
 from dcjax.analysis.design import design_input, evaluate_input
-from dcjax.io.reference import simulate_numpy
+from dcjax.io.numpy_simulator import simulate_numpy
 
 dcjax.use_host_devices()
 dcjax.use_compiled_loops()

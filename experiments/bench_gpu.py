@@ -21,7 +21,7 @@ dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
 from dcjax import DC, Recording, datasets, fit, fit_each, make_problem  # noqa: E402
-from dcjax.io.reference import simulate_numpy  # noqa: E402
+from dcjax.io.numpy_simulator import simulate_numpy  # noqa: E402
 from dcjax.simulation.kernel import objective_kernel_jit  # noqa: E402
 from dcjax.simulation.objectives import objective  # noqa: E402
 

@@ -68,7 +68,7 @@ def _scipy() -> dict:
     from scipy.optimize import differential_evolution
 
     from dcjax import DC, datasets
-    from dcjax.io.reference import objective_numpy
+    from dcjax.io.numpy_simulator import objective_numpy
 
     rec = datasets.load("SD1")
     lo, hi = DC().parameters("table4").lower, DC().parameters("table4").upper

@@ -1,6 +1,6 @@
 """Benchmark (issue 2): the simulation cost of one paper run, 140,000 RK4 simulations of SD1 in
 populations of 70 (2000 calls), JAX against the straightforward NumPy implementation
-(`dcjax.io.reference`), measured in the same process.
+(`dcjax.io.numpy_simulator`), measured in the same process.
 
     .venv/bin/python -m experiments.bench_simulate [--numpy-calls 2000]
 """
@@ -15,7 +15,7 @@ import numpy as np
 
 import dcjax
 from dcjax import DC, datasets, make_problem, objective
-from dcjax.io.reference import objective_numpy
+from dcjax.io.numpy_simulator import objective_numpy
 from dcjax.simulation.integrate import prepare, rk4_step
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation

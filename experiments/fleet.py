@@ -11,7 +11,7 @@ import numpy as np
 
 import dcjax
 from dcjax import DC, Recording, datasets
-from dcjax.io.reference import simulate_numpy
+from dcjax.io.numpy_simulator import simulate_numpy
 
 dcjax.use_host_devices()  # one XLA CPU device per core, before any JAX computation
 dcjax.use_compiled_loops()

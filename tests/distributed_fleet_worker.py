@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 
 from dcjax import Recording, datasets  # noqa: E402
 from dcjax.compat import PARAM_NAMES, identify_fleet  # noqa: E402
-from dcjax.io.reference import simulate_numpy  # noqa: E402
+from dcjax.io.numpy_simulator import simulate_numpy  # noqa: E402
 
 truth = np.array([datasets.true_params("SD1")[p] for p in PARAM_NAMES])
 x = truth * np.random.default_rng(0).uniform(0.8, 1.2, (5, 7))

@@ -12,7 +12,7 @@ import pytest
 import dcjax
 from dcjax import cli, datasets
 from dcjax.analysis.design import design_input, evaluate_input, information, null_parameters, predicted_stderr, template_problem
-from dcjax.io.reference import simulate_numpy
+from dcjax.io.numpy_simulator import simulate_numpy
 
 SD1 = datasets.true_params("SD1")
 NAMES = dcjax.DC.names

@@ -11,7 +11,7 @@ import pytest
 
 from dcjax import Recording, datasets
 from dcjax.compat import PARAM_NAMES, identify, identify_fleet
-from dcjax.io.reference import simulate_numpy
+from dcjax.io.numpy_simulator import simulate_numpy
 
 CODE = """
 import json, numpy as np, sys

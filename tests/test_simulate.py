@@ -10,7 +10,7 @@ import scipy.linalg
 import dcjax
 from dcjax import RK4, Recording, make_problem, objective, simulate
 from dcjax.compat import Params
-from dcjax.io.reference import simulate_numpy
+from dcjax.io.numpy_simulator import simulate_numpy
 from dcjax.models import DC
 from dcjax.models.dc import Coefficients, derivatives, vector_field
 

@@ -7,7 +7,7 @@ from dcjax import Recording, datasets, make_problem
 from dcjax.analysis.uncertainty import NOT, WELL, profile, uncertainty
 from dcjax.compat import PARAM_NAMES, TABLE4, identify
 from dcjax.fitting.polish import polish_jit
-from dcjax.io.reference import simulate_numpy
+from dcjax.io.numpy_simulator import simulate_numpy
 
 TRUE = datasets.true_params("SD1")
 X_TRUE = np.array([TRUE[n] for n in PARAM_NAMES])

@@ -105,12 +105,12 @@ def recording_findings(recordings: list[Recording], model: Model) -> list:
 
 def fit_auto_substeps(recordings, model, params: Parameters, auto: AutoSubsteps, search: Search, progress=None) -> FitResult:
     """Paper Section 5: fit at ND = 1; at its best parameters compare the simulation at ND = 1, 2,
-    4, ... with an adaptive diffrax reference (`dcjax.simulation.reference_solve`) and take the
+    4, ... with an adaptive diffrax reference (`dcjax.simulation.diffrax_reference`) and take the
     first ND whose error (max over channels of max |y - y_ref| / max |y_measured|) is at most
     `auto.tol`; refit there, and repeat from that fit until the ND stays (at most 3 rounds).
     `settings["nd_auto"]` records the choice."""
+    from ..simulation.diffrax_reference import reference_simulate_jit, simulation_error
     from ..simulation.problem import make_problem
-    from ..simulation.reference_solve import reference_simulate_jit, simulation_error
 
     kind = type(auto.integrator)
 

@@ -3,7 +3,7 @@ lab file formats and units, the embedded SD/MD data sets, the drive emulator, an
 independent NumPy reference integrator that made the SD data."""
 
 from .loading import load_recording, preprocess
+from .numpy_simulator import objective_numpy, simulate_numpy
 from .recording import Recording, load_csv, save_csv, trim_switch_on
-from .reference import objective_numpy, simulate_numpy
 
 __all__ = ["Recording", "load_csv", "load_recording", "objective_numpy", "preprocess", "save_csv", "simulate_numpy", "trim_switch_on"]

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ..models.dc import NAMES as PARAM_NAMES
+from .numpy_simulator import simulate_numpy
 from .recording import Recording, load_csv
-from .reference import simulate_numpy
 
 # Table 3. SD2: larger inertia; SD3: smaller La (faster electrical time constant); SD4: smaller J.
 SD_PARAMS: dict[str, dict[str, float]] = {

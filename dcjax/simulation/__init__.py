@@ -2,9 +2,9 @@
 ND sub-steps as a `lax.scan` (eq. 28-29), the Pallas kernel that holds a population's whole time
 loop on a GPU, the normalized objective (eq. 24, 27) and the adaptive diffrax reference."""
 
+from .diffrax_reference import reference_simulate, simulation_error
 from .objectives import objective, population_objective, residuals, simulate, stacked_residuals
 from .problem import Problem, make_problem
-from .reference_solve import reference_simulate, simulation_error
 
 __all__ = [
     "Problem",

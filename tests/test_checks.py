@@ -208,3 +208,17 @@ def test_a_zero_at_a_required_parameter_is_a_failed_fit_hint():
     hints = bound_hints(R({**dict.fromkeys(dcjax.DC.names, 0.5), "cm": 0.0, "Tlb": 0.0}, dcjax.DC()))
     assert "physics needs it" in hints[0] and "cm" in hints[0]
     assert "does not need the term" in hints[1] and "Tlb" in hints[1]
+
+
+def test_fit_findings_flag_a_rate_slower_than_la_over_ra_and_a_channel_not_followed(sd1):
+    from dcjax.analysis.checks import fit_findings
+
+    r = dcjax.fit(sd1, params="table4", runs=1, budget=140)
+    truth = datasets.true_params("SD1")  # La/Ra = 1.9 ms, dt = 0.1 ms: resolved
+    good = dataclasses.replace(r, best_values=truth)
+    assert [f.check for f in fit_findings(good)] == []
+    fast_tau = dataclasses.replace(r, best_values={**truth, "La": 1e-6})  # La/Ra = 24 ns < dt
+    slow = [f for f in fit_findings(fast_tau) if f.check == "slow-rate"]
+    assert slow and "La cannot be resolved at this rate" in slow[0].message
+    bad = fit_findings(good, fits={"i_a": 95.0, "omega": -3.0})
+    assert [f.label for f in bad] == ["no-follow:omega"] and bad[0].severity == "warning"

@@ -5,6 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import dcjax
 from dcjax import make_problem, objective
 from dcjax.compat import TABLE4, Params
 from dcjax.strategies import DEBest1Bin, Evosax, State, make_strategy, run
@@ -194,3 +195,10 @@ def test_bad_strategy_options():
         make_strategy("de-rand-1-exp", bounds_rule="bounce")
     with pytest.raises(ValueError, match="unknown evosax"):
         Evosax(name="NoSuchES")
+
+
+def test_cma_es_is_a_named_method_with_evosax_defaults(sd1):
+    s = make_strategy("cma-es")
+    assert type(s).__name__ == "Evosax" and s.name == "CMA_ES" and s.pop_size == 70
+    r = dcjax.fit(sd1, params="table4", method="cma-es", runs=1, budget=700)
+    assert r.settings["method"] == "CMA_ES" and np.isfinite(r.of) and int(r.fes[0]) <= 700

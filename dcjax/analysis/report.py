@@ -32,7 +32,8 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
         f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}" + (", LM polish" if s.get("polish") else ""),
     ]
     for rec in result.recordings:
-        lines.append(f"    data               = {rec.name} ({len(rec)} samples, t {rec.t[0]:g}..{rec.t[-1]:g} s)")
+        consts = ", constants " + ", ".join(f"{k}={v:g}" for k, v in rec.constants.items()) if rec.constants else ""
+        lines.append(f"    data               = {rec.name} ({len(rec)} samples, t {rec.t[0]:g}..{rec.t[-1]:g} s{consts})")
     if not result.recordings:
         lines.append(f"    data               = {s.get('recording')} (not loaded)")
     lines.append(f"    objective (best)   = {st['best']:.6e}")

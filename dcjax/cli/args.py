@@ -56,6 +56,11 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
         help="the clamp on the limited state: a drive's supply current limit (A)",
     )
     g.add_argument(
+        "--const",
+        default=None,
+        help='inputs constant in this recording instead of a column, e.g. kp=100,mass=0.49 (over the sidecar\'s "constants")',
+    )
+    g.add_argument(
         "--scale", default=None, help="channel=factor pairs applied after --units, e.g. omega=322.67 (gear ratio / wheel radius)"
     )
     g.add_argument("--dt", type=float, default=None, help="sample time (s) for a file without a time column")
@@ -80,7 +85,7 @@ def _parser() -> argparse.ArgumentParser:
         "exit 0 all fitted, 1 some failed, 2 none fitted",
     )
     f.add_argument("--model", default="dc", help="dc (default), dc-coulomb, package.module:attr or path/to/file.py:Name")
-    f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)} or an evosax algorithm (CMA_ES, PSO, ...)")
+    f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...)")
     f.add_argument("--integrator", default="rk4", choices=list(INTEGRATORS))
     f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
     f.add_argument("--runs", type=int, default=50)

@@ -14,17 +14,21 @@ def _load(data: str, args, model):
     from ..io.loading import load_recording
 
     if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
+        rec = datasets.load(data)
+        consts = _named_floats(getattr(args, "const", None), "--const")
+        if consts:
+            rec = rec.replace(constants={**rec.constants, **consts})
         if any(getattr(args, k, None) for k in ("window", "every", "trim")):  # --columns, --units, --scale, --dt, --rate are for files
-            rec = datasets.load(data)
             from ..io.loading import preprocess
 
             return preprocess(rec, args.window, args.every, args.trim)
-        return datasets.load(data)
+        return rec
     return load_recording(
         data,
         columns=parse_mapping(args.columns, "--columns") or None,
         units=parse_mapping(args.units, "--units") or None,
         scale=_named_floats(args.scale, "--scale") or None,
+        constants=_named_floats(getattr(args, "const", None), "--const") or None,
         dt=args.dt,
         rate=args.rate,
         delimiter=args.delimiter,

@@ -8,7 +8,9 @@ import numpy as np
 
 from .fitting import _load
 
-READING = ("columns", "units", "scale", "dt", "rate", "delimiter", "decimal")  # how a file is read (not what is kept of it)
+# How a file is read (not what is kept of it): the command-line option -> its key in result.json's load record.
+READING = {"columns": "columns", "units": "units", "scale": "scale", "dt": "dt", "rate": "rate", "delimiter": "delimiter",
+           "decimal": "decimal", "const": "constants"}  # fmt: skip
 
 
 def _result(path):
@@ -19,14 +21,15 @@ def _result(path):
 
 def _load_like_fit(data: str, args, res):
     """`data` read as the command's options say, or, where none of the reading options is given,
-    with the fitted file's (`result.json`: columns, units, scale, dt, rate, delimiter, decimal);
+    with the fitted file's (`result.json`: columns, units, scale, dt, rate, delimiter, decimal,
+    constants);
     a channel whose peak differs from the fitted recording's by more than 10x gets a one-line
     warning (a unit or scale slip)."""
     src = next((d for d in res.settings.get("data") or [] if isinstance(d, dict)), {})
     given = any(getattr(args, k, None) not in (None, ".") for k in READING)
     load = src.get("load") or {}
     if not given and load and Path(data).exists():
-        args = argparse.Namespace(**{**vars(args), **{k: _flag(k, load.get(k)) for k in READING}})
+        args = argparse.Namespace(**{**vars(args), **{k: _flag(k, load.get(key)) for k, key in READING.items()}})
     rec = _load(data, args, res.model)
     for c, fitted in (src.get("peaks") or {}).items():
         if c in rec.channels and fitted > 0:

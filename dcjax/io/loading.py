@@ -159,6 +159,7 @@ def load_recording(
     scale: dict | None = None,
     dt: float | None = None,
     rate: float | None = None,
+    constants: dict | None = None,
 ) -> Recording:
     """A recording from a file, with the model's channels (default: the paper's `t, u_a, i_a,
     omega`) in SI units.
@@ -173,8 +174,10 @@ def load_recording(
     - `scale`: channel -> factor applied after the unit conversion (a speed logged in m/s at the
       wheel behind a 9.68:1 gear on a 30 mm wheel: `{"omega": 9.68 / 0.03}`).
     - `dt` (s) or `rate` (Hz): for a file without a time column, t = k dt.
-    - A JSON sidecar with the same stem supplies the name, the current limit (`i_a_limit`) and
-      metadata; `limit` overrides it (`i_limit=`, the 0.1 name, warns).
+    - A JSON sidecar with the same stem supplies the name, the current limit (`i_a_limit`), the
+      inputs constant in this recording (`"constants": {"kp": 100}`) and metadata; `limit` and
+      `constants` override them (`i_limit=`, the 0.1 name, warns). An input given as a constant
+      is not read from the file; one that is not is read from its column.
     - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
       (cut before switch-on) — recorded, with the file's path and sha256, in
       `metadata["source"]`, so a saved result can reload the same data."""
@@ -191,9 +194,13 @@ def load_recording(
         table = read_table(path, delimiter, decimal)
     else:
         raise ValueError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
-    needed = tuple(c for c in m.channels)
-    chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate)
     meta = read_sidecar(path)
+    consts = {**(meta.get("constants") or {}), **(constants or {})}
+    needed = tuple(c for c in m.channels if c not in consts or c not in m.inputs)
+    chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate,
+                            inputs=tuple(m.inputs))  # fmt: skip
+    if consts:
+        meta["constants"] = consts
     if i_limit is not None:
         warn_deprecated("load_recording(i_limit=)", "load_recording(limit=)")
         limit = i_limit if limit is None else limit
@@ -210,6 +217,7 @@ def load_recording(
         "every": every,
         "trim": trim,
         "limit": limit,
+        "constants": constants or None,
         "scale": scale or None,
         "dt": dt,
         "rate": rate,

@@ -28,6 +28,22 @@ class DataError(ValueError):
         self.check = check
 
 
+def _constants(given, where: str = "") -> dict[str, float]:
+    """A name -> finite number mapping (the inputs constant in a recording), checked."""
+    if not isinstance(given, dict):
+        raise ValueError(f"{where}constants must be a name -> number mapping, got {given!r}")
+    out = {}
+    for k, v in given.items():
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            f = float("nan")
+        if not np.isfinite(f):
+            raise ValueError(f"{where}constant {k} must be a finite number, got {v!r}")
+        out[str(k)] = f
+    return out
+
+
 class Recording:
     """A validated response: strictly increasing time `t` (s), equally long finite channels,
     the clamp `limit` on the model's `limited_state` (for the DC models the supply's current
@@ -37,11 +53,13 @@ class Recording:
     Channels are named by keyword or in `channels`, whatever the model calls them:
     `Recording(t=..., u_a=..., i_a=..., omega=...)` (the paper's drive) or
     `Recording(t=..., channels={"u": ..., "x": ...})`; they are read as attributes (`rec.i_a`)
-    or by `rec[name]`."""
+    or by `rec[name]`. `constants` (name -> number, kept in `metadata["constants"]`): inputs that
+    are constant in this recording (a controller gain, a supply voltage, a mass), given instead of
+    a column; `rec[name]` reads one as a constant array."""
 
     __slots__ = ("t", "channels", "limit", "name", "metadata")
 
-    def __init__(self, t, *, channels=None, limit=None, i_a_limit=None, name: str = "", metadata=None, **named_channels):
+    def __init__(self, t, *, channels=None, limit=None, i_a_limit=None, name: str = "", metadata=None, constants=None, **named_channels):
         object.__setattr__(self, "name", str(name or ""))
         chans = dict(channels or {})
         for key, v in named_channels.items():
@@ -52,7 +70,7 @@ class Recording:
             if np.ndim(v) == 0:  # a misspelt option, not a channel
                 raise ValueError(
                     f"{self._where()}{key}={v!r}: a keyword of Recording is a channel (a 1-D array); the options are "
-                    "channels=, limit=, name= and metadata="
+                    "channels=, limit=, name=, metadata= and constants="
                 )
             chans[key] = v
         if not chans:
@@ -100,7 +118,22 @@ class Recording:
         object.__setattr__(self, "t", tt)
         object.__setattr__(self, "channels", arrays)
         object.__setattr__(self, "limit", limit)
-        object.__setattr__(self, "metadata", dict(metadata or {}))
+        meta = dict(metadata or {})
+        if constants is not None or "constants" in meta:
+            meta["constants"] = _constants(constants if constants is not None else meta["constants"], self._where())
+            clash = [c for c in meta["constants"] if c in arrays]
+            if clash:
+                raise ValueError(f"{self._where()}{', '.join(clash)} given both as a column and as a constant; give it once")
+        object.__setattr__(self, "metadata", meta)
+
+    @property
+    def constants(self) -> dict[str, float]:
+        """Name -> value of the inputs that are constant in this recording."""
+        return dict(self.metadata.get("constants") or {})
+
+    def has(self, name: str) -> bool:
+        """A channel or a constant of that name."""
+        return name in self.channels or name in self.constants
 
     @property
     def i_a_limit(self) -> float | None:
@@ -118,6 +151,8 @@ class Recording:
         if key == "t":
             return self.t
         if key not in self.channels:
+            if key in self.constants:
+                return np.full(self.t.shape, self.constants[key])
             raise ValueError(f"{self._where()}no channel {key!r}; it has {', '.join(self.channels)}")
         return self.channels[key]
 
@@ -155,7 +190,7 @@ class Recording:
             warn_deprecated("Recording.replace(i_a_limit=)", "Recording.replace(limit=)")
             changes["limit"] = changes.pop("i_a_limit")
         for k in list(changes):
-            if k not in ("t", "limit", "name", "metadata"):
+            if k not in ("t", "limit", "name", "metadata", "constants"):
                 chans[k] = changes.pop(k)
         kw = {"t": self.t, "limit": self.limit, "name": self.name, "metadata": self.metadata, **changes}
         return Recording(channels=chans, **kw)

@@ -84,6 +84,7 @@ def select_channels(
     scale: dict | None = None,
     dt: float | None = None,
     rate: float | None = None,
+    inputs: tuple[str, ...] = (),
 ) -> dict[str, np.ndarray]:
     """Channels `needed` (and `t`) from `table` (column name -> values; columns may be named by
     header or by 0-based index), converted to SI with `units` (channel -> unit name), then
@@ -118,6 +119,8 @@ def select_channels(
             col = table[headers[k]]
         else:
             hint = " or give the sample time with dt/--dt or rate/--rate" if c == "t" else ""
+            if c in inputs:  # an input may be constant in a recording
+                hint = f"; or, as the model's inputs ({', '.join(inputs)}) may be, a constant: constants=/--const {c}=V or the sidecar's 'constants'"
             raise ValueError(
                 f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns/--columns {c}=NAME{hint})"
             )

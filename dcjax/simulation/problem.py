@@ -84,10 +84,13 @@ def make_problem(
         raise ValueError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}")
     if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() == 0:
         raise ValueError(f"weights must be non-negative, finite and not all zero, got {weights!r}")
-    missing = [c for c in model.channels if c not in recording.channels]
+    missing = [c for c in model.channels if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
     if missing:
+        consts = f" and constants {', '.join(recording.constants)}" if recording.constants else ""
         raise ValueError(
-            f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has {', '.join(recording.channels)}"
+            f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has "
+            f"{', '.join(recording.channels)}{consts} (the model's inputs {', '.join(model.inputs) or 'none'} may also be "
+            'constants: --const NAME=V or the sidecar\'s "constants")'
         )
     t = recording.t
     u = np.stack([recording[c] for c in model.inputs], axis=1) if model.inputs else np.zeros((len(t), 0))

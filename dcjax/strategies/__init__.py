@@ -16,6 +16,10 @@ METHODS = {
 }
 
 
+# Named methods that are evosax algorithms with their defaults (`Evosax`): `"cma-es"` is evosax's CMA_ES.
+EVOSAX_NAMES = {"cma-es": "CMA_ES"}
+
+
 def evosax_names() -> list[str]:
     """The evosax algorithms (empty where the `evosax` extra is not installed)."""
     try:
@@ -26,9 +30,9 @@ def evosax_names() -> list[str]:
 
 
 def make_strategy(method: str | Strategy, pop_size: int = 70, **options) -> Strategy:
-    """A strategy by name: one of `METHODS` (the paper's five) or an evosax algorithm name
-    (`"CMA_ES"`, `"PSO"`, `"DifferentialEvolution"`, ...; prefix `evosax:` optional; needs the
-    `evosax` extra, imported only here)."""
+    """A strategy by name: one of `METHODS` (the paper's five), `"cma-es"` (evosax's CMA_ES with
+    its defaults) or an evosax algorithm name (`"CMA_ES"`, `"PSO"`, `"DifferentialEvolution"`, ...;
+    prefix `evosax:` optional; needs the `evosax` extra, imported only here)."""
     if isinstance(method, Strategy):
         return method
     if not isinstance(method, str):
@@ -36,7 +40,7 @@ def make_strategy(method: str | Strategy, pop_size: int = 70, **options) -> Stra
     key = method.lower()
     if key in METHODS:
         return METHODS[key](pop_size=pop_size, **options)
-    name = method.removeprefix("evosax:")
+    name = EVOSAX_NAMES.get(key, method.removeprefix("evosax:"))
     try:
         from .evosax_adapter import Evosax
     except ImportError:

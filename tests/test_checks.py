@@ -177,6 +177,7 @@ def test_validate_reads_the_file_as_the_fit_did_and_warns_of_a_scale_slip(tmp_pa
     assert "the peak of i_a is 1e+03x the fitted recording's" in err and "unit or scale slip" in err
 
 
+@pytest.mark.slow
 def test_plots_option_and_a_progress_line_per_file(tmp_path, capsys):
     sd = [datasets.DATA_DIR / f"SD{k}.csv" for k in (1, 2)]
     rc = cli.main(

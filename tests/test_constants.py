@@ -49,6 +49,7 @@ def test_constants_from_a_sidecar_give_the_bits_of_the_same_constants_as_columns
     assert "constants k=2.5" in b.report()
 
 
+@pytest.mark.slow
 def test_the_cli_const_option_and_errors_that_name_the_inputs(tmp_path, capsys):
     path = _write(tmp_path, "bare", 2.5, False)
     (tmp_path / "bare.json").unlink()  # no sidecar: the constant comes from --const

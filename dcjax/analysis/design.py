@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..io.recording import Recording
-from ..models import Model, get_model
+from ..models import DiscreteModel, Model, get_model
 from ..simulation.integrators import RK4
 from ..simulation.objectives import simulate
 from ..simulation.problem import Problem, make_problem
@@ -73,7 +73,7 @@ def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u: n
         chans[s] = np.zeros_like(t)
         chans[s][-1] = 1.0
     rec = Recording(t=t, channels=chans, limit=i_limit)
-    prob = make_problem(rec, RK4(substeps=2), model=model)
+    prob = make_problem(rec, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
     x = jnp.asarray([params[n] for n in model.names])
     sim = simulate(x, prob)
     return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])

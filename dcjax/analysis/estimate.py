@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..io.recording import Recording
-from ..models import Model, get_model
+from ..models import DiscreteModel, Model, get_model
 from ..models.parameters import Parameter, Parameters
 from ..simulation.integrators import RK4
 from ..simulation.objectives import objective
@@ -52,7 +52,9 @@ def _output_errors(recording: Recording, model: Model, xs: list[np.ndarray]) -> 
     x = np.array(xs, float)
     ok = np.all(np.isfinite(x), axis=1)
     x[~ok] = x[ok][0] if ok.any() else 1.0
-    f = np.asarray(_objective_jit(jnp.asarray(x), make_problem(recording, RK4(substeps=2), model=model)))
+    f = np.asarray(
+        _objective_jit(jnp.asarray(x), make_problem(recording, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model))
+    )
     return np.where(ok & np.isfinite(f), f, np.inf)
 
 
@@ -191,10 +193,15 @@ def _linear_estimate(model: Model, blocks, q: int):
 
 
 def _derivative_residual(model: Model, phi, data):
-    """(dy/dt - f(theta, y, u)) / rms(dy/dt), stacked over the states; theta = phi^2 where non-negative."""
-    Y, U, DY, scale, nn = data
+    """(dy/dt - f(theta, y, u)) / rms(dy/dt), stacked over the states; theta = phi^2 where
+    non-negative. A discrete-time model's rate is (update(c, u, y, dt) - y) / dt at the rows' dt."""
+    Y, U, DY, scale, nn, dt = data
     p = model.as_dict(jnp.where(nn, phi * phi, phi))
-    f = model.vector_field(model.coefficients(p), U, Y)
+    c = model.coefficients(p)
+    if isinstance(model, DiscreteModel):
+        f = tuple((a - b) / dt for a, b in zip(model.update(c, U, Y, dt), Y))
+    else:
+        f = model.vector_field(c, U, Y)
     return jnp.concatenate([s * (d - fi) for s, d, fi in zip(scale, DY, f)])
 
 
@@ -209,7 +216,7 @@ def _lm_solve(model: Model, phi0, data):
     return phis, jax.vmap(lambda p: jnp.sum(residual(p, data) ** 2))(phis)
 
 
-def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters):
+def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float):
     """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta)."""
     names = model.names
     lo, hi = start.lower, start.upper
@@ -229,6 +236,7 @@ def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters):
         DY,
         tuple(jnp.asarray(1.0 / max(float(jnp.sqrt(jnp.mean(d * d))), 1e-300)) for d in DY),
         jnp.asarray(nonneg),
+        jnp.asarray(dt * q, jnp.float64),  # the rows' sample interval (a discrete-time model's update takes it)
     )
     phis, cost = _lm_solve(model, jnp.asarray(phi0), data)
     cost = np.where(np.isfinite(np.asarray(cost)), np.asarray(cost), np.inf)
@@ -318,7 +326,7 @@ def initial_estimate(
         b = border if border is not None else _border(fs, c if linear or cutoff is not None else float(CUTOFFS.min() * fs), n_samples)
         y, dy, u, q = _rows(recording, m, c, order, b, decimate)
         blocks = m.regression(y, dy, u)
-        return _linear_estimate(m, blocks, q) if blocks is not None else _lm_estimate(m, y, dy, u, q, base)
+        return _linear_estimate(m, blocks, q) if blocks is not None else _lm_estimate(m, y, dy, u, q, base, 1.0 / fs)
 
     if cutoff is not None:
         theta, stderr, upper = solve(float(cutoff))

@@ -86,7 +86,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     f.add_argument("--model", default="dc", help="dc (default), dc-coulomb, package.module:attr or path/to/file.py:Name")
     f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...)")
-    f.add_argument("--integrator", default="rk4", choices=list(INTEGRATORS))
+    f.add_argument("--integrator", default=None, choices=list(INTEGRATORS), help="default rk4 (a discrete-time model takes none)")
     f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
     f.add_argument("--runs", type=int, default=50)
     f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")

@@ -75,12 +75,20 @@ def _bounds(args, model, rec):
 
 def _options(args, model) -> dict:
     """The `dcjax.fit` options every file of this command shares (the parameters are per file)."""
+    from ..models import DiscreteModel
     from ..simulation.integrators import INTEGRATORS, AutoSubsteps
     from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
-    step = INTEGRATORS[args.integrator]
-    integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
+    if isinstance(model, DiscreteModel):
+        if args.integrator is not None or nd != 1:
+            raise ValueError(
+                f"model {model.name} is a discrete-time model (update(c, u, y, dt) per sample): --integrator and --nd do not apply"
+            )
+        integrator = None
+    else:
+        step = INTEGRATORS[args.integrator or "rk4"]
+        integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
     memory = None if args.memory is None else MEMORIES[args.memory]
     return dict(method=args.method, integrator=integrator, runs=args.runs, budget=args.budget, generations=args.generations,
                 seed=args.seed, memory=memory, polish=args.polish)  # fmt: skip
@@ -176,7 +184,7 @@ def _print_fit(result, recs, args, model, out):
     names = " + ".join(r.name for r in recs)
     b = result.settings["bounds"]
     print(
-        f"{names}: model {model.name}, {args.method}, {args.integrator}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
+        f"{names}: model {model.name}, {args.method}, {result.settings['integrator']}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
     )
     auto = result.settings.get("nd_auto")
     if auto:

@@ -64,7 +64,7 @@ def fit_each(
     from .fit import check_integrator, fit, search_of
 
     m = get_model(model)
-    integ = check_integrator(integrator)
+    integ = check_integrator(integrator, m)
     search = search_of(method, runs, budget, generations, seed, memory, polish)
     loader = load or (lambda p: load_recording(p, model=m))
     if isinstance(params, (list, tuple)):

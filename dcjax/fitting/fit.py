@@ -15,8 +15,9 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import Model, get_model
+from ..models.base import DiscreteModel
 from ..models.parameters import Parameters
-from ..simulation.integrators import RK4, AutoSubsteps, Integrator
+from ..simulation.integrators import RK4, AutoSubsteps, Integrator, integrator_for
 from ..strategies import Strategy, make_strategy
 from ..strategies.memory import MemoryAssistance
 from .engine import Search, fit_setup, prepare, resolve_parameters
@@ -37,7 +38,12 @@ def search_of(method, runs, budget, generations, seed, memory, polish) -> Search
     return Search(strategy, memory, runs, budget, generations, seed, polish)
 
 
-def check_integrator(integrator) -> Integrator | AutoSubsteps:
+def check_integrator(integrator, model: Model | None = None) -> Integrator | AutoSubsteps:
+    """The fit's integrator: the given one (default RK4), or a discrete-time model's `SampleMap`."""
+    if isinstance(model, DiscreteModel):
+        if isinstance(integrator, AutoSubsteps):
+            raise ValueError(f"model {model.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
+        return integrator_for(model, integrator)
     integrator = RK4() if integrator is None else integrator
     if not isinstance(integrator, (Integrator, AutoSubsteps)):
         raise ValueError(
@@ -78,7 +84,7 @@ def fit(
     fraction done."""
     recordings = recordings_of(data)
     m = get_model(model)
-    integrator = check_integrator(integrator)
+    integrator = check_integrator(integrator, m)
     search = search_of(method, runs, budget, generations, seed, memory, polish)
     resolved = resolve_parameters(params, recordings, m)
     if isinstance(integrator, AutoSubsteps):

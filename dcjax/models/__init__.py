@@ -8,7 +8,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
-from .base import Model
+from .base import DiscreteModel, Model
 from .dc import DC, DCCoulomb
 
 MODELS: dict[str, type[Model]] = {"dc": DC, "dc-coulomb": DCCoulomb}
@@ -79,4 +79,4 @@ def model_spec(model: Model) -> str:
     return f"{module}:{type(model).__qualname__}"
 
 
-__all__ = ["DC", "DCCoulomb", "MODELS", "Model", "get_model", "model_spec"]
+__all__ = ["DC", "DCCoulomb", "MODELS", "DiscreteModel", "Model", "get_model", "model_spec"]

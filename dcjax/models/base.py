@@ -197,3 +197,20 @@ class Model(eqx.Module):
             return y
         k = self.states.index(self.limited_state)
         return y[:k] + (jnp.clip(y[k], -limit, limit),) + y[k + 1 :]
+
+
+class DiscreteModel(Model):
+    """A model given as its own map from one sample to the next instead of a vector field:
+
+        update(self, c, u, y, dt) -> y_next
+
+    with the coefficients `c`, the inputs `u` at the sample (a tuple), the states `y` (a tuple) and
+    the sample interval `dt` (a model whose behaviour depends on the step, such as a firmware's
+    friction per step, is written once, correct at any rate). No integrator applies: the
+    simulation applies `update` once per sample interval (and the limit after it)."""
+
+    def update(self, c: Any, u: tuple[Array, ...], y: tuple[Array, ...], dt) -> tuple[Array, ...]:
+        raise NotImplementedError
+
+    def vector_field(self, c, u, y):
+        raise ValueError(f"model {self.name} is a discrete-time model: it defines update(c, u, y, dt), not a vector field")

@@ -6,6 +6,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..models.base import DiscreteModel
 from .integrators import Integrator
 from .problem import Problem
 
@@ -21,6 +22,9 @@ def advance(c, problem: Problem, y: State, h, ua: State, ub: State) -> State:
 
 def advance_with(model, integrator: Integrator, limit, c, y: State, h, ua: State, ub: State) -> State:
     """`advance` with the settings spelled out (also used inside the Pallas kernel)."""
+
+    if isinstance(model, DiscreteModel):  # its own map from one sample to the next (SampleMap)
+        return model.clamp(model.update(c, ua, y, h), limit)
 
     def field(u, y):
         return model.vector_field(c, u, y)

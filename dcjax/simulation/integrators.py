@@ -70,6 +70,34 @@ class RK4(Integrator):
         return tuple(a + h6 * (q1 + 2.0 * (q2 + q3) + q4) for a, q1, q2, q3, q4 in zip(y, k1, k2, k3, k4))
 
 
+class SampleMap(Integrator):
+    """A discrete-time model's own map from one sample to the next (`DiscreteModel.update`): no
+    integration, one application per sample interval (`substeps` must stay 1)."""
+
+    def __check_init__(self):
+        if self.substeps != 1:
+            raise ValueError("a discrete-time model's update has no sub-steps")
+
+    def step(self, field, y, u0, u1, h):
+        raise ValueError("SampleMap belongs to a dcjax.DiscreteModel; an ODE model needs Euler, RK4 or an Integrator of its own")
+
+
+def integrator_for(model, integrator: "Integrator | None") -> Integrator:
+    """The integrator of a simulation of `model`: the given one (default `RK4()`), or for a
+    `DiscreteModel` its `SampleMap` (any other is a one-line error)."""
+    from ..models.base import DiscreteModel
+
+    if isinstance(model, DiscreteModel):
+        if integrator is not None and not isinstance(integrator, SampleMap):
+            raise ValueError(
+                f"model {model.name} is a discrete-time model (update(c, u, y, dt) per sample): it takes no integrator, got {integrator!r}"
+            )
+        return SampleMap()
+    if isinstance(integrator, SampleMap):
+        raise ValueError(f"model {model.name} is not a discrete-time model: it needs an integrator (Euler, RK4, ...), not SampleMap")
+    return RK4() if integrator is None else integrator
+
+
 class AutoSubsteps(eqx.Module):
     """The sub-steps chosen against an adaptive diffrax reference (paper Section 5): fit at 1, take
     the first of 1, 2, 4, ... `max_substeps` within `tol` of the reference (relative to each
@@ -97,6 +125,8 @@ def integrator_spec(integrator: Integrator) -> str:
     for name, cls in INTEGRATORS.items():
         if type(integrator) is cls:
             return name
+    if type(integrator) is SampleMap:
+        return "discrete"
     return f"{type(integrator).__module__}:{type(integrator).__qualname__}"
 
 
@@ -110,6 +140,8 @@ def get_integrator(spec: "str | Integrator | type[Integrator]", substeps: int = 
         raise ValueError(f"integrator must be a dcjax.Integrator or one of {sorted(INTEGRATORS)}, got {spec!r}")
     if spec.lower() in INTEGRATORS:
         return INTEGRATORS[spec.lower()](substeps=substeps)
+    if spec.lower() == "discrete":
+        return SampleMap()
     mod, _, attr = spec.rpartition(":")
     try:
         cls = getattr(importlib.import_module(mod), attr) if mod else None

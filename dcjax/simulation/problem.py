@@ -9,7 +9,7 @@ from jaxtyping import Array, Float
 from ..deprecation import warn_deprecated
 from ..io.recording import DataError, Recording
 from ..models import Model, get_model
-from .integrators import RK4, Integrator, get_integrator
+from .integrators import RK4, Integrator, get_integrator, integrator_for
 
 
 class Problem(eqx.Module):
@@ -70,8 +70,9 @@ def make_problem(
     """
     integrator, initial, recording = _legacy_options(integrator, initial, recording, legacy)
     model = get_model(model)
-    if not isinstance(integrator, Integrator):
+    if integrator is not None and not isinstance(integrator, Integrator):
         raise ValueError(f"integrator must be a dcjax.Integrator (dcjax.Euler(substeps=N), dcjax.RK4(substeps=N), ...), got {integrator!r}")
+    integrator = integrator_for(model, integrator)
     check_positive_int("unroll", unroll)
     outs = model.outputs
     if weights is None:
@@ -144,7 +145,6 @@ def _legacy_options(integrator, initial, recording, legacy: dict):
             integrator = type(integrator)(substeps=int(nd)) if nd is not None else integrator
         else:
             integrator = get_integrator(integrator or "rk4", int(nd or 1))
-    integrator = RK4() if integrator is None else integrator
     init = dict(initial or {})
     for key, state in (("i0", "i_a"), ("w0", "omega")):
         if legacy.get(key) is not None:

@@ -32,6 +32,13 @@ def test_notebook_runs(path, tmp_path, monkeypatch):
     monkeypatch.setenv("DCJAX_STORE", str(tmp_path / "absent.jsonl"))  # the browser builds its own demo store
     monkeypatch.setenv("MPLBACKEND", "Agg")
     nb = nbformat.read(path, as_version=4)
+    # dcjax's own DeprecationWarnings (a 0.1 name in a notebook) are errors
+    nb.cells.insert(
+        0,
+        nbformat.v4.new_code_cell(
+            'import warnings\nwarnings.filterwarnings("error", message=".*deprecated since dcjax", category=DeprecationWarning)'
+        ),
+    )
     NotebookClient(nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}).execute()
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs]
     assert not [o for o in outputs if o.output_type == "error"]

@@ -77,6 +77,8 @@ def test_unknown_suite_is_an_error():
 def _command(tmp, *extra) -> list[str]:
     cmd = [
         sys.executable,
+        "-W",
+        "error::DeprecationWarning",  # the package's own paths use no deprecated name
         "-m",
         "experiments.reproduce",
         "profile=smoke",

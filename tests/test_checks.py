@@ -223,3 +223,10 @@ def test_fit_findings_flag_a_rate_slower_than_la_over_ra_and_a_channel_not_follo
     assert slow and "La cannot be resolved at this rate" in slow[0].message
     bad = fit_findings(good, fits={"i_a": 95.0, "omega": -3.0})
     assert [f.label for f in bad] == ["no-follow:omega"] and bad[0].severity == "warning"
+
+
+def test_fit_each_checks_each_recording_unless_told_not_to(sd1):
+    rev = sd1.replace(i_a=-sd1["i_a"], omega=-sd1["omega"], name="rev")  # wired in reverse
+    (a,) = dcjax.fit_each([rev], params="table4", runs=1, budget=140)
+    (b,) = dcjax.fit_each([rev], params="table4", runs=1, budget=140, checks=False)
+    assert "reversed:omega" in {f.label for f in a.checks} and b.checks == []  # (SD1's current is a spike: a weak cosine)

@@ -354,7 +354,8 @@ def _fit_each_files(args, model, options, split: "_Split") -> int:
         except Exception as e:
             results[k] = _failed_file(rec.name, e, args.data[k], findings)
     split.add("estimate")
-    fitted = fit_each([r for _, r, _, _ in prepared], model, [p for *_, p in prepared], **options) if prepared else []
+    recs = [r for _, r, _, _ in prepared]  # checked above (with the folder's peaks): fit_each need not check them again
+    fitted = fit_each(recs, model, [p for *_, p in prepared], checks=False, **options) if prepared else []
     split.add("search")
     for (k, _, findings, _), res in zip(prepared, fitted):
         res.checks = findings

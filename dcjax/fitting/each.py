@@ -44,6 +44,7 @@ def fit_each(
     memory=None,
     polish: bool = False,
     progress=None,
+    checks: bool = True,
 ) -> list[FitResult | FailedFit]:
     """`dcjax.fit` on each recording on its own (not a joint fit), with the same options.
 
@@ -51,7 +52,8 @@ def fit_each(
     model). Every recording goes through the data checks (`dcjax.analysis.checks`, with the
     fleet's median peaks); one that fails to load, has an `error` finding, or fails to prepare (its
     channels, its first estimate) gets a `FailedFit` with its one-line error and every other one
-    is fitted; the findings are in each result's `checks`.
+    is fitted; the findings are in each result's `checks` (`checks=False`: no data checks, for a
+    caller that has made them).
     `params`: as `fit` takes it, for every recording, or a list with one entry per item; None takes
     each recording's sidecar preset, else `"auto"`. Recordings of one shape (length, channels,
     limit, free parameters, weights) are fitted in one compiled call
@@ -83,8 +85,9 @@ def fit_each(
         except Exception as e:
             out[k] = _failed(name, e, source)
     setups: list = []
-    for (k, rec, source), fleet in zip(loaded, fleet_findings([r for _, r, _ in loaded], m)):
-        findings = check_recording(rec, m) + fleet
+    fleet = fleet_findings([r for _, r, _ in loaded], m) if checks else [[] for _ in loaded]
+    for (k, rec, source), extra in zip(loaded, fleet):
+        findings = check_recording(rec, m) + extra if checks else []
         errors = [f for f in findings if f.severity == ERROR]
         if errors:
             out[k] = FailedFit(rec.name, f"{errors[0].check}: {errors[0].message}", source, checks=findings)

@@ -199,18 +199,16 @@ class Setup:
     joint_weights: list[float]
     weights: tuple[float, ...] | None  # channel weights (None: all 1)
 
-    @property
-    def bounds(self) -> Bounds:
-        return self.space.bounds
+    def _given_precision(self) -> dict[str, float] | None:
+        """The precisions the parameters give (the rest: the model's)."""
+        return {n: p.precision for n, p in self.params.items() if p.precision is not None} or None
 
     def precision(self) -> np.ndarray:
         """The memory precisions of the free parameters in the unit cube."""
-        prec = {n: p.precision for n, p in self.params.items() if p.precision is not None}  # the rest: the model's
-        return unit_precision(prec or None, self.space, self.model)
+        return unit_precision(self._given_precision(), self.space, self.model)
 
     def physical_precision(self) -> list[float]:
-        prec = {n: p.precision for n, p in self.params.items() if p.precision is not None}
-        return physical_precision(prec or None, self.model).tolist()
+        return physical_precision(self._given_precision(), self.model).tolist()
 
 
 def prepare(recordings: list[Recording], model: Model, params: Parameters, integrator: Integrator, starts=None) -> Setup:

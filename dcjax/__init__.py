@@ -33,6 +33,7 @@ from .models.bounds import Bounds  # noqa: E402
 from .models.parameters import Parameter, Parameters  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
 from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Euler, Integrator  # noqa: E402
+from .simulation.losses import L1, LOSSES, SSE, Huber, Loss  # noqa: E402
 from .simulation.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
 from .strategies.memory import LTMA, MEMORIES, STMA, IndexedLTMA, MemoryAssistance  # noqa: E402
 from .version import __version__  # noqa: E402
@@ -68,6 +69,11 @@ __all__ = [
     "RK4",
     "AutoSubsteps",
     "INTEGRATORS",
+    "Loss",
+    "SSE",
+    "L1",
+    "Huber",
+    "LOSSES",
     "MemoryAssistance",
     "STMA",
     "LTMA",

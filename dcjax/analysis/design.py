@@ -425,6 +425,8 @@ def scales_from_fit(result, fraction: float = 0.01) -> dict[str, float]:
     b = result.bounds
     out = {}
     for n in result.at_bound():
+        if n not in result.model.names:  # a local copy, an offset or delay: not the model's to design for
+            continue
         k = result.names.index(n)
         width = float(b.upper[k] - b.lower[k])
         if abs(result.best_values[n]) <= 1e-9 * width:

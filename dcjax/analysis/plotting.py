@@ -6,9 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-# The SI unit a loaded channel is in, by the model's quantity (`dcjax.io.units.UNITS`).
-SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s", "angle": "rad", "torque": "Nm",
-            "position": "m", "speed": "m/s", "force": "N"}  # fmt: skip
+from ..io.units import SI_UNITS
 
 
 def channel_label(model, c: str) -> str:

@@ -31,6 +31,20 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
         f"    method             = {s['method']}, {s['integrator']}, ND = {s['nd']}",
         f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}" + (", LM polish" if s.get("polish") else ""),
     ]
+    obs = getattr(result, "observation", None)
+    if obs is not None and not obs.plain:
+        norm = (
+            "over each channel's peak"
+            if obs.loss.normalize == "peak"
+            else "raw units" + (", pooled by samples" if len(result.recordings) > 1 else "")
+        )
+        lines.append(f"    loss               = {obs.loss.spec} ({norm})")
+        if obs.initial:
+            lines.append(f"    initial state      = {', '.join(f'{k}={v}' for k, v in obs.initial.items())}")
+        if obs.offsets or obs.delays:
+            lines.append(
+                "    sensors            = " + ", ".join([*(f"offset on {c}" for c in obs.offsets), *(f"delay of {c}" for c in obs.delays)])
+            )
     for rec in result.recordings:
         consts = ", constants " + ", ".join(f"{k}={v:g}" for k, v in rec.constants.items()) if rec.constants else ""
         lines.append(f"    data               = {rec.name} ({len(rec)} samples, t {rec.t[0]:g}..{rec.t[-1]:g} s{consts})")
@@ -54,10 +68,13 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
     u = result._uncertainty
     lines.append("[[Variables]]")
     at_bound = set(result.at_bound())
-    width = max(len(n) for n in m.names)
-    for n in m.names:
+    names = result.names
+    params = result.params
+    width = max(len(n) for n in names)
+    recs = [r.name for r in result.recordings] or (s.get("recording") if isinstance(s.get("recording"), list) else [])
+    for n in names:
         v = result.best_values[n]
-        unit = m.units.get(n, "")
+        unit = params[n].unit
         text = f"    {n + ':':<{width + 1}} {v: .10g}"
         if n in result.fixed:
             text += " (fixed)"
@@ -70,10 +87,15 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
             text += "  [at bound]"
         if u is not None and n not in result.fixed and u.verdict[n] != "well determined":
             text += f"  [{u.verdict[n]}: {u.reason[n]}]"
+        if n.endswith("]") and "[" in n:
+            k = int(n[n.rindex("[") + 1 : -1])
+            text += f"  ({recs[k]})" if k < len(recs) else ""
         lines.append(text)
     if u is None:
         lines.append("    (standard errors: call result.uncertainty(), dcjax fit --uncertainty or dcjax report RESULT.json --uncertainty)")
     else:
+        if getattr(u, "approximation", ""):
+            lines.append(f"    ({u.approximation})")
         pairs = u.strong_correlations(correl_threshold)
         lines.append(f"[[Correlations]] (unreported correlations are < {correl_threshold:.3f})")
         lines += [f"    C({a}, {b}) = {c:+.4f}" for a, b, c in pairs] or ["    none"]

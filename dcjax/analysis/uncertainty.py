@@ -20,7 +20,7 @@ import optimistix as optx
 
 from ..models.bounds import Bounds
 from ..models.space import Space, make_space
-from ..simulation.objectives import stacked_residuals
+from ..simulation.joint import JointProblem, joint_problem
 from ..simulation.problem import Problem
 
 WELL, WEAK, NOT, FIXED = "well determined", "weakly determined", "not identifiable from this recording", "fixed (known)"
@@ -38,6 +38,7 @@ class Uncertainty:
     dof: int
     s2: float
     profile: tuple | None = None  # (values, OFs) of a profile likelihood, where computed
+    approximation: str = ""  # what a non-Gaussian loss's errors assume ("" for the squared error)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -53,7 +54,8 @@ class Uncertainty:
 
     def table(self) -> str:
         """One row per parameter; a dash where no finite standard error exists (a null direction)."""
-        lines = [f"{'param':>6} {'value':>13} {'std. error':>11} {'rel.':>8} {'95 % interval':>29}  verdict"]
+        w = max(6, *(len(n) for n in self.params))
+        lines = [f"{'param':>{w}} {'value':>13} {'std. error':>11} {'rel.':>8} {'95 % interval':>29}  verdict"]
         for n in self.params:
             v, s = self.params[n], self.se[n]
             lo, hi = self.ci95[n]
@@ -62,29 +64,37 @@ class Uncertainty:
                 cols = f"{s:11.3g} {rel:8.1e} [{lo:13.6g}, {hi:13.6g}]"
             else:
                 cols = f"{'-':>11} {'-':>8} {'-':>29}"
-            lines.append(f"{n:>6} {v:13.6g} {cols}  {self.verdict[n]} ({self.reason[n]})")
+            lines.append(f"{n:>{w}} {v:13.6g} {cols}  {self.verdict[n]} ({self.reason[n]})")
+        if self.approximation:
+            lines.append(f"note: {self.approximation}")
         return "\n".join(lines)
 
 
+def _target(problems, weights) -> JointProblem:
+    if isinstance(problems, JointProblem):
+        return problems
+    problems = problems if isinstance(problems, list) else [problems]
+    return joint_problem(problems, weights)
+
+
 def residual_jacobian(
-    x: np.ndarray, problems: list[Problem], weights: list[float] | None = None, free=None
+    x: np.ndarray, problems: "list[Problem] | JointProblem", weights: list[float] | None = None, free=None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Stacked residuals r (m,) and J = dr/dx (m, F) over one or several recordings, with respect
-    to the parameters `free` (indices; default all); each recording's residuals are scaled by
-    sqrt(its weight), so sum r^2 is the (joint) OF."""
-    weights = weights or [1.0 / len(problems)] * len(problems)
+    """Stacked residuals r (m,) and J = dr/dx (m, F) over one or several recordings (or a fit's
+    `JointProblem`: its search vector), with respect to the entries `free` (indices; default all);
+    each recording's residuals are scaled by sqrt(its weight), so sum r^2 is the (joint) OF."""
     xj = jnp.asarray(x, dtype=jnp.float64)
     free = jnp.arange(xj.shape[0]) if free is None else jnp.asarray(free, dtype=int)
-    r, jac = _residuals_and_jacobian(xj, free, list(problems), tuple(float(w) for w in weights))
+    r, jac = _residuals_and_jacobian(xj, free, _target(problems, weights))
     return np.asarray(r), np.asarray(jac)
 
 
 @eqx.filter_jit
-def _residuals_and_jacobian(x: jax.Array, free: jax.Array, problems: list[Problem], weights: tuple[float, ...]):
+def _residuals_and_jacobian(x: jax.Array, free: jax.Array, target: JointProblem):
     """One compiled residual and forward-mode Jacobian per problem structure (reused across calls)."""
 
     def r_of(xf):
-        return stacked_residuals(x.at[free].set(xf), problems, list(weights))
+        return target.residuals(x.at[free].set(xf))
 
     return r_of(x[free]), jax.jacfwd(r_of)(x[free])
 
@@ -100,7 +110,7 @@ def _t_quantile(dof: int) -> float:
 
 def uncertainty(
     x,
-    problems: Problem | list[Problem],
+    problems: "Problem | list[Problem] | JointProblem",
     bounds: Bounds | Space,
     weights: list[float] | None = None,
     weak_rel_se: float = 0.1,
@@ -115,13 +125,13 @@ def uncertainty(
     is correlated above 0.99 with another parameter; else *well determined*. Parameters fixed in
     `bounds` (a `Space`, or equal lower and upper bounds) are known: *fixed (known)*, error 0,
     and the others' errors are computed with them held."""
-    problems = problems if isinstance(problems, list) else [problems]
-    model = problems[0].model
+    target = _target(problems, weights)
+    model = target.problems[0].model
     space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
-    names = model.names
+    names = space.names
     x = np.asarray(x, dtype=np.float64)
     fidx = np.array(space.free)
-    r, jac = residual_jacobian(x, problems, weights, fidx)
+    r, jac = residual_jacobian(x, target, None, fidx)
     m, p = jac.shape
     dof = max(m - p, 1)
     s2 = float(r @ r) / dof
@@ -184,7 +194,7 @@ def profile(
     x,
     name: str,
     values,
-    problems: Problem | list[Problem],
+    problems: "Problem | list[Problem] | JointProblem",
     bounds: Bounds | Space,
     weights: list[float] | None = None,
     max_steps: int = 200,
@@ -192,14 +202,14 @@ def profile(
     """Profile likelihood of one parameter: for each value, the least OF over the other free
     parameters (Levenberg–Marquardt from `x`, bounds kept by the sine reparametrization; fixed
     parameters stay fixed). Returns OFs."""
-    problems = problems if isinstance(problems, list) else [problems]
-    model = problems[0].model
-    model.check_names([name])
+    target = _target(problems, weights)
+    model = target.problems[0].model
     space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
+    if name not in space.names:
+        raise ValueError(f"unknown parameter {name!r}; the fit's parameters are {', '.join(space.names)}")
     if name in space.fixed:
         raise ValueError(f"{name} is fixed; a profile needs a free parameter")
-    weights = weights or [1.0 / len(problems)] * len(problems)
-    k = model.names.index(name)
+    k = space.names.index(name)
     free = np.array([j for j in space.free if j != k])
     lo, hi = np.asarray(space.bounds.lower)[free], np.asarray(space.bounds.upper)[free]
     z0 = np.clip((np.asarray(x)[free] - lo) / np.where(hi > lo, hi - lo, 1.0), 1e-12, 1 - 1e-12)
@@ -211,7 +221,7 @@ def profile(
         return base.at[free].set(xf).at[k].set(v)
 
     def fn(y, v):
-        return stacked_residuals(full(y, v), problems, weights)
+        return target.residuals(full(y, v))
 
     @jax.jit
     def solve(v):

@@ -25,6 +25,16 @@ def _named_floats(text: str | None, what: str) -> dict[str, float]:
     return out
 
 
+def _names(text: str | None, what: str) -> tuple[str, ...]:
+    """A comma-separated list of names (None: none)."""
+    if text is None:
+        return ()
+    names = tuple(n.strip() for n in text.split(","))
+    if not all(names):
+        raise ValueError(f"{what} must be comma-separated names, got {text!r}")
+    return names
+
+
 def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]:
     out = {}
     for k, v in parse_mapping(text, what).items():
@@ -67,6 +77,28 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--rate", type=float, default=None, help="sample rate (Hz) for a file without a time column")
 
 
+def _add_experiment_options(f: argparse.ArgumentParser) -> None:
+    g = f.add_argument_group("the experiment: loss, initial state, per-recording parameters, sensors")
+    g.add_argument("--loss", default=None, help="sse (default: the paper's eq. 24/27), l1 (mean absolute error) or huber:DELTA")
+    g.add_argument(
+        "--normalize", default=None, choices=["peak", "none"],
+        help="peak (default): residuals over each channel's peak; none: raw units, a joint fit pooled by sample count",
+    )  # fmt: skip
+    g.add_argument(
+        "--initial", default=None,
+        help="initial states, STATE=SPEC pairs: a number, measured (default where measured), derivative (default for a "
+        "derivative state) or fit (a free y0_STATE per recording), e.g. omega=fit",
+    )  # fmt: skip
+    g.add_argument(
+        "--local", default=None,
+        help="parameters with one value per recording of a joint fit, e.g. Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
+    )  # fmt: skip
+    g.add_argument("--offset", default=None, help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "
+                   "the peak; --bound offset_CH=LO:HI), e.g. i_a")  # fmt: skip
+    g.add_argument("--delay", default=None, help="inputs with a free delay delay_IN in seconds (range 0..10 samples; "
+                   "--bound delay_IN=LO:HI), e.g. u_a")  # fmt: skip
+
+
 def _parser() -> argparse.ArgumentParser:
     from ..simulation.integrators import INTEGRATORS
     from ..strategies import METHODS
@@ -103,7 +135,8 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
     f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. Ra=42.5,Tlc=0")
     f.add_argument("--x0", default=None, help="start values seeding the initial population, e.g. Ra=40,J=2e-5")
-    f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run")
+    f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run (sse and huber losses)")
+    _add_experiment_options(f)
     f.add_argument("--uncertainty", action="store_true", help="standard errors, 95%% intervals and identifiability")
     f.add_argument(
         "--memory",
@@ -121,12 +154,8 @@ def _parser() -> argparse.ArgumentParser:
         "search at --runs 2), or none",
     )
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
-    f.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar on stderr (default: when stderr is a terminal)",
-    )
+    f.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")  # fmt: skip
     _add_data_options(f)
     s = sub.add_parser("simulate", help="simulate a saved result on a recording: CSV of measured and simulated channels, and a plot")
     s.add_argument("result", help="result.json of a fit")

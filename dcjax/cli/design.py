@@ -27,7 +27,7 @@ def design_cmd(args) -> int:
         label = f"baseline {Path(f).stem}"
         given[label if label not in given else f"{label} ({k + 1})"] = _baseline_input(f, t, m.inputs[0] if m.inputs else "u")
     design = design_input(
-        m, res.best_values, duration=args.duration, dt=args.dt, u_range=(args.umin, args.umax), hold=args.hold, limit=limit,
+        m, res.values(0), duration=args.duration, dt=args.dt, u_range=(args.umin, args.umax), hold=args.hold, limit=limit,
         criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,
         steps=args.steps, seed=args.seed, baselines=list(given.values()),
     )  # fmt: skip

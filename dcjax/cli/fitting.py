@@ -6,7 +6,7 @@ import time
 from pathlib import Path
 
 from ..io.units import parse_mapping
-from .args import _floats, _named_floats, _named_ranges
+from .args import _floats, _named_floats, _named_ranges, _names
 
 
 def _load(data: str, args, model):
@@ -50,11 +50,14 @@ def _nd(text: str):
         raise ValueError(f"--nd must be a positive integer or 'auto', got {text!r}") from None
 
 
-def _bounds(args, model, rec):
-    """--lower/--upper, --bounds (a preset or auto; default the sidecar's preset, else auto) and
-    the --bound overrides over them. Returns (Bounds, start values of the auto estimate)."""
+def _bounds(args, model, recs):
+    """--lower/--upper, --bounds (a preset or auto from every recording of the fit; default the
+    sidecar's preset, else auto) and the --bound overrides of the model's parameters over them.
+    Returns (Bounds, start values of the auto estimate)."""
     from ..models.bounds import Bounds, resolve_bounds
 
+    recs = recs if isinstance(recs, list) else [recs]
+    rec = recs[0]
     if (args.lower is None) != (args.upper is None):
         raise ValueError("--lower and --upper must be given together")
     start = {}
@@ -67,10 +70,16 @@ def _bounds(args, model, rec):
         if preset.lower() == "auto":
             from ..analysis.estimate import auto_bounds
 
-            bounds, start, _ = auto_bounds(rec, model)
+            bounds, start, _ = auto_bounds(recs, model)
         else:
             bounds = resolve_bounds(model, preset)
-    return resolve_bounds(model, bounds, _named_ranges(args.bound, "--bound")), start
+    given = {k: v for k, v in _named_ranges(args.bound, "--bound").items() if k in model.names or not _observed(k)}
+    return resolve_bounds(model, bounds, given), start
+
+
+def _observed(name: str) -> bool:
+    """A name of the experiment's parameters (not the model's): y0_*, offset_*, delay_*."""
+    return name.startswith(("y0_", "offset_", "delay_"))
 
 
 def _options(args, model) -> dict:
@@ -90,8 +99,18 @@ def _options(args, model) -> dict:
         step = INTEGRATORS[args.integrator or "rk4"]
         integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
     memory = None if args.memory is None else MEMORIES[args.memory]
+    initial = parse_mapping(args.initial, "--initial")
+    if args.local is not None and (args.each or len(args.data) < 2):
+        raise ValueError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
     return dict(method=args.method, integrator=integrator, runs=args.runs, budget=args.budget, generations=args.generations,
-                seed=args.seed, memory=memory, polish=args.polish)  # fmt: skip
+                seed=args.seed, memory=memory, polish=args.polish, loss=_loss(args), initial=initial,
+                offsets=_names(args.offset, "--offset"), delays=_names(args.delay, "--delay"))  # fmt: skip
+
+
+def _loss(args):
+    from ..simulation.losses import get_loss
+
+    return get_loss(args.loss or "sse", args.normalize)
 
 
 def _precision(args, model) -> dict[str, float]:
@@ -116,15 +135,26 @@ def _prepared(rec, args, model):
 
 
 def _file_params(args, model, rec):
-    """A file's `Parameters`: ranges from --bounds/--lower/--upper/--bound (default its sidecar's
-    preset, else auto), --fix, start values from --x0 (else the auto estimate's, where inside
-    the ranges) and --precision."""
+    """A fit's `Parameters`: ranges from --bounds/--lower/--upper/--bound (default its sidecar's
+    preset, else auto from every recording `rec`), --fix, start values from --x0 (else the auto
+    estimate's, where inside the ranges), --precision, --local; then the experiment's parameters
+    (y0_*, offset_*, delay_*) that --bound, --fix, --x0 or --local name."""
     from ..models.parameters import Parameter, Parameters
 
-    bounds, start = _bounds(args, model, rec)
-    fixed = _named_floats(args.fix, "--fix")
+    recs = rec if isinstance(rec, list) else [rec]
+    bounds, start = _bounds(args, model, recs)
+    local = set(_names(args.local, "--local"))
+    unknown = [n for n in local if n not in model.names and not _observed(n)]
+    if unknown:
+        raise ValueError(f"--local: unknown parameter {', '.join(unknown)}; model {model.name} has {', '.join(model.names)} "
+                         "(and the fit's offset_CH, delay_IN)")  # fmt: skip
+    if local and len(recs) < 2:
+        raise ValueError("--local needs a joint fit of several recordings (each gets its own value)")
+    fixed_all = _named_floats(args.fix, "--fix")
+    x0_all = _named_floats(args.x0, "--x0")
+    fixed = {k: v for k, v in fixed_all.items() if not _observed(k)}
+    x0 = {k: v for k, v in x0_all.items() if not _observed(k)}
     model.check_names(fixed, "fixed parameter")
-    x0 = _named_floats(args.x0, "--x0")
     model.check_names(x0, "start value")
     lo, hi = bounds.lower, bounds.upper
     if not x0:
@@ -134,7 +164,12 @@ def _file_params(args, model, rec):
     for k, n in enumerate(model.names):
         value = fixed.get(n, x0.get(n))
         out.append(Parameter(n, value=value, min=float(lo[k]), max=float(hi[k]), vary=n not in fixed,
-                             unit=model.units.get(n, ""), precision=prec.get(n)))  # fmt: skip
+                             unit=model.units.get(n, ""), precision=prec.get(n), local=n in local))  # fmt: skip
+    ranges = _named_ranges(args.bound, "--bound")
+    for n in dict.fromkeys([*(k for k in ranges if _observed(k)), *(k for k in fixed_all if _observed(k)),
+                            *(k for k in x0_all if _observed(k)), *(k for k in local if _observed(k))]):  # fmt: skip
+        lo_n, hi_n = ranges.get(n, (float("-inf"), float("inf")))
+        out.append(Parameter(n, value=fixed_all.get(n, x0_all.get(n)), min=lo_n, max=hi_n, vary=n not in fixed_all, local=n in local))
     return Parameters(out)
 
 
@@ -142,7 +177,7 @@ def _fit_one(recs, args, model, options, progress):
     from ..fitting.fit import fit
 
     recs = [_prepared(r, args, model) for r in recs]
-    result = fit(recs, model, _file_params(args, model, recs[0]), progress=progress, **options)
+    result = fit(recs, model, _file_params(args, model, recs), progress=progress, **options)
     if args.uncertainty:
         result = result.uncertainty()
     return result
@@ -192,16 +227,25 @@ def _print_fit(result, recs, args, model, out):
         print(
             f"  nd auto: ND={auto['chosen']} (reference error {auto['reference_error']:.2e} <= {auto['tol']:g}: {auto['converged']}); at the ND=1 fit {tried}"
         )
-    header = f"{'param':>6} {'unit':>7} {'identified':>22} {'lower':>10} {'upper':>10}" + (
+    from ..fitting.vector import base_name, unit_of
+
+    for note in result.observation.notes(model, recs):
+        print(note)
+    if not result.observation.plain:
+        o = result.observation
+        print(f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"
+              + (f"; initial {', '.join(f'{k}={v}' for k, v in o.initial.items())}" if o.initial else ""))  # fmt: skip
+    w = max(6, *(len(n) for n in result.names))
+    header = f"{'param':>{w}} {'unit':>7} {'identified':>22} {'lower':>10} {'upper':>10}" + (
         f" {'true':>14} {'rel. error':>11}" if truth else ""
     )
     print(header)
     at_bound = set(result.at_bound())
-    for k, name in enumerate(model.names):
+    for k, name in enumerate(result.names):
         v = result.best_values[name]
-        line = f"{name:>6} {model.units.get(name, ''):>7} {v:>22.15g} {b['lower'][k]:>10.3g} {b['upper'][k]:>10.3g}"
-        if truth:
-            t = truth[name]
+        line = f"{name:>{w}} {unit_of(name, model):>7} {v:>22.15g} {b['lower'][k]:>10.3g} {b['upper'][k]:>10.3g}"
+        if truth and base_name(name) in truth:
+            t = truth[base_name(name)]
             line += f" {t:>14.6g} {abs(v - t) / abs(t) if t else abs(v):>11.2e}"
         if name in result.fixed:
             line += "  (fixed)"

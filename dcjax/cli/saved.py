@@ -67,19 +67,20 @@ def simulate_cmd(args) -> int:
 
 
 def validate_cmd(args) -> int:
+    import jax.numpy as jnp
+
     from ..analysis.report import channel_fit
-    from ..simulation.objectives import objective
 
     res = _result(args.result)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     recs = [_load_like_fit(d, args, res) for d in args.data]
-    x = [res.best_values[n] for n in res.names]
+    x = jnp.asarray([res.best_values[n] for n in res.names], dtype=jnp.float64)
     width = max(12, *(len(r.name) for r in recs))
     print(f"{'recording':>{width}} {'OF':>12}  " + "  ".join(f"{'fit % ' + c:>14}" for c in res.model.outputs))
     rows = []
     for rec in recs:
-        of = float(objective(x, res.problems([rec])[0]))
+        of = float(res.target([rec]).objective(x))  # a fitted recording with its own local values and initial states
         fits = channel_fit(res, rec)
         rows.append({"recording": rec.name, "of": of, "fit_percent": fits})
         print(f"{rec.name:>{width}} {of:12.4e}  " + "  ".join(f"{v:14.3f}" for v in fits.values()))

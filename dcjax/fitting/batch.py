@@ -27,12 +27,12 @@ def _stack(trees):
 
 
 def _batched_each(search: Search, mesh, dim, axis: str):
-    """(keys, problems (B, ...), spaces (B, ...), precisions, start values, hyperparameters) ->
+    """(keys, targets (B, ...), spaces (B, ...), precisions, start values, hyperparameters) ->
     runs (B, R, ...). On several devices the `axis` ("runs" or "recordings") is split over them."""
 
-    def device_runs(keys, problem, space, prec, x0, hyper):
+    def device_runs(keys, target, space, prec, x0, hyper):
         strat = with_hyperparameters(search.strategy, hyper)
-        return run_batch(strat, keys, fitness(space, [problem], [1.0]), search.budget, dim, search.memory, prec, search.generations, x0)
+        return run_batch(strat, keys, fitness(space, target), search.budget, dim, search.memory, prec, search.generations, x0)
 
     each = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0, None))
     if mesh is not None:
@@ -47,7 +47,7 @@ def group_key(setup: Setup) -> tuple:
     """Setups with the same key share one compiled call."""
     prob = setup.problems[0]
     return (len(setup.recordings[0]), tuple(setup.recordings[0].channels), prob.limit is None, setup.space.free,
-            repr(setup.integrator), setup.weights is None)  # fmt: skip
+            repr(setup.integrator), setup.weights is None, setup.observation.loss, setup.layout)  # fmt: skip
 
 
 def fit_setups(setups: list[Setup], search: Search) -> list[FitResult]:
@@ -88,8 +88,8 @@ def _run_group(setups: list[Setup], search: Search) -> list[FitResult]:
     devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
     mesh = mesh_of(devices, axis)
     pad = padded_size(len(setups), devices) - len(setups) if axis == "recordings" else 0
-    problems = [s.problems[0] for s in setups]
-    batch = [_stack(problems + [problems[-1]] * pad), _stack(spaces + [spaces[-1]] * pad)]
+    targets = [s.target for s in setups]
+    batch = [_stack(targets + [targets[-1]] * pad), _stack(spaces + [spaces[-1]] * pad)]
     batch += [None if a is None else np.concatenate([a] + [a[-1:]] * pad) for a in (prec, z0)]
     if axis == "recordings":
         keys = replicate(fold_keys(seed, runs), mesh)

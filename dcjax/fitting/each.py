@@ -43,6 +43,10 @@ def fit_each(
     seed: int = 0,
     memory=None,
     polish: bool = False,
+    loss=None,
+    initial: dict | None = None,
+    offsets: Sequence[str] = (),
+    delays: Sequence[str] = (),
     progress=None,
     checks: bool = True,
 ) -> list[FitResult | FailedFit]:
@@ -59,15 +63,17 @@ def fit_each(
     limit, free parameters, weights) are fitted in one compiled call
     (`dcjax.fitting.batch.fit_setups`: the same results as one fit each); with `AutoSubsteps` or
     `progress` they are fitted one after another. An error of the batched call itself (not of one
-    recording) is raised."""
+    recording) is raised. `loss`, `initial`, `offsets`, `delays`: as `fit` takes them."""
     from ..io.loading import load_recording
     from .batch import fit_setups
     from .engine import prepare, resolve_parameters
-    from .fit import check_integrator, fit, search_of
+    from .fit import check_integrator, fit, observation_of, search_of
 
     m = get_model(model)
     integ = check_integrator(integrator, m)
     search = search_of(method, runs, budget, generations, seed, memory, polish)
+    observation = observation_of(m, loss, initial, offsets, delays, polish)
+    terms: dict = dict(loss=observation.loss, initial=dict(observation.initial), offsets=observation.offsets, delays=observation.delays)
     loader = load or (lambda p: load_recording(p, model=m))
     if isinstance(params, (list, tuple)):
         if len(params) != len(items):
@@ -95,11 +101,11 @@ def fit_each(
         try:  # one broken recording fails alone, whatever broke in preparing it
             if isinstance(integ, AutoSubsteps) or progress:
                 out[k] = fit(rec, m, each[k], search.strategy, integrator=integ, runs=runs, budget=budget, generations=generations,
-                             seed=seed, memory=memory, polish=polish, progress=progress)  # fmt: skip
+                             seed=seed, memory=memory, polish=polish, progress=progress, **terms)  # fmt: skip
                 out[k].checks = findings
                 continue
             assert isinstance(integ, Integrator)
-            setups.append((k, prepare([rec], m, resolve_parameters(each[k], [rec], m), integ), findings))
+            setups.append((k, prepare([rec], m, resolve_parameters(each[k], [rec], m), integ, observation=observation), findings))
         except Exception as e:
             out[k] = _failed(rec.name, e, source, findings)
     if setups:
@@ -180,7 +186,7 @@ def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[d
                          "checks": " ".join(f.label for f in r.checks)})  # fmt: skip
             continue
         row = {"name": r.recording.name if r.recording else "", "file": _source(r), "status": "ok", "error": "", "of": r.of}
-        row.update({n: r.best_values[n] for n in m.names})
+        row.update(dict(r.best_values))  # the model's parameters, then any fitted y0_*, offset_*, delay_*
         findings = list(r.checks)
         for rec in r.recordings[:1]:
             fits = channel_fit(r, rec)
@@ -209,7 +215,9 @@ def write_summary(rows: list[dict], folder: Path, model=None, plot: bool = True)
     m = get_model(model)
     folder.mkdir(parents=True, exist_ok=True)
     channels = [f"fit_{c}" for c in m.outputs]
-    cols = ["name", "file", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"]
+    known = {"name", "file", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"}
+    extra = list(dict.fromkeys(k for row in rows for k in row if k not in known))  # the experiment's y0_*, offset_*, delay_*
+    cols = ["name", "file", "status", "error", "of", *m.names, *extra, *channels, "at_bound", "checks", "outlier"]
     csv_path = folder / "summary.csv"
     with csv_path.open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")

@@ -21,17 +21,19 @@ from ..io.recording import Recording
 from ..models import Model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
-from ..models.precision import physical_precision, unit_precision
-from ..models.space import Space, make_space
+from ..models.precision import physical_precision
+from ..models.space import Space, vector_space
 from ..simulation.integrators import Integrator, integrator_spec
+from ..simulation.joint import JointProblem, Layout
 from ..simulation.kernel import kernel_mode
-from ..simulation.objectives import objective
 from ..simulation.problem import Problem, check_positive_int, make_problem
 from ..strategies import METHODS, Strategy
 from ..strategies.base import FitnessFn, hyperparameters, iteration_limit, run_batch, structure_key, with_hyperparameters
 from ..strategies.memory import MemoryAssistance
+from .observation import Observation
 from .result import FitResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
+from .vector import base_name, search_vector
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
 # (other weights, bounds or recordings of equal length) reuse them.
@@ -106,10 +108,15 @@ def channel_weights(recordings: list[Recording], model: Model) -> tuple[float, .
     return tuple(float(w.get(c, 1.0)) for c in model.outputs)
 
 
-def joint_weights(recordings: list[Recording]) -> list[float]:
-    """Each recording's share of a joint fit's OF: its `joint_weight`, default equal shares."""
+def joint_weights(recordings: list[Recording], pooled: bool = False) -> list[float]:
+    """Each recording's share of a joint fit's OF: its `joint_weight`, default equal shares, or
+    (`pooled`, a loss without normalisation) its share of all samples, so the recordings' means
+    pool into one mean over every sample."""
     jw = [r.metadata.get("joint_weight") for r in recordings]
     if all(w is None for w in jw):
+        if pooled and len(recordings) > 1:
+            total = sum(len(r) for r in recordings)
+            return [len(r) / total for r in recordings]
         return [1.0 / len(recordings)] * len(recordings)
     out = [1.0 if w is None else float(w) for w in jw]
     if any(not w >= 0 for w in out) or sum(out) <= 0:
@@ -137,8 +144,20 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> Par
         raise ValueError(
             f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
         )
-    params.check(model.names, model.name)
+    own, extras = split_parameters(params, model)
+    own.check(model.names, model.name)
+    for n, p in extras.items():
+        if p.vary and p.min > p.max:
+            raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
     return params.copy()
+
+
+def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:
+    """(the model's parameters, the rest: the observation's `y0_*`, `offset_*`, `delay_*`)."""
+    own = [params[n] for n in params if n in model.names]
+    return Parameters(own if len(own) == len(model.names) else [params[n] for n in params]), Parameters(
+        [params[n] for n in params if n not in model.names]
+    )
 
 
 def parameters_of(model: Model, bounds: Bounds, values: Mapping[str, float] | None = None) -> Parameters:
@@ -155,19 +174,27 @@ def parameters_of(model: Model, bounds: Bounds, values: Mapping[str, float] | No
 
 def start_rows(x0, model: Model, space: Space) -> np.ndarray | None:
     """Start values as unit-cube rows (K, D) of the free parameters, NaN where not given. `x0`:
-    a name -> value mapping, a list of them, or full parameter vectors (K, P)."""
+    a name -> value mapping, a list of them, or full vectors (K, P) of the search vector
+    (`space.names`). A model parameter's value seeds every local copy of it."""
     if x0 is None:
         return None
+    names = space.names
     rows = x0 if isinstance(x0, (list, tuple)) and x0 and isinstance(x0[0], dict) else [x0] if isinstance(x0, dict) else None
     if rows is None:
         full = np.atleast_2d(np.asarray(x0, dtype=np.float64))
-        if full.shape[-1] != model.n_params:
-            raise ValueError(f"x0 must be name -> value mappings or vectors of {model.n_params} values {model.names}")
-        rows = [dict(zip(model.names, r)) for r in full]
+        if full.shape[-1] != len(names):
+            raise ValueError(f"x0 must be name -> value mappings or vectors of {len(names)} values {names}")
+        rows = [dict(zip(names, r)) for r in full]
     lo, hi = np.asarray(space.lower), np.asarray(space.upper)
     out = np.full((len(rows), space.dim), np.nan)
     for i, row in enumerate(rows):
-        model.check_names(row, "start value")
+        bad = [n for n in row if n not in names and n not in model.names]
+        if bad:
+            raise ValueError(f"unknown start value {', '.join(map(repr, bad))}; the fit's parameters are {', '.join(names)}")
+        row = {
+            **{c: v for n, v in row.items() if n not in names for c in names if base_name(c) == n},
+            **{n: v for n, v in row.items() if n in names},
+        }
         for n, v in row.items():
             if n in space.fixed:
                 continue
@@ -191,42 +218,75 @@ class Setup:
 
     recordings: list[Recording]
     model: Model
-    params: Parameters
+    params: Parameters  # of the search vector (`dcjax.fitting.vector`)
     integrator: Integrator
     problems: list[Problem]
     space: Space
     starts: np.ndarray | None  # (K, D) unit cube, NaN where not given
     joint_weights: list[float]
     weights: tuple[float, ...] | None  # channel weights (None: all 1)
+    observation: Observation = dataclasses.field(default_factory=Observation)
+    layout: Layout | None = None  # None: the model's parameters, shared
 
-    def _given_precision(self) -> dict[str, float] | None:
-        """The precisions the parameters give (the rest: the model's)."""
-        return {n: p.precision for n, p in self.params.items() if p.precision is not None} or None
+    @property
+    def target(self) -> JointProblem:
+        """The objective over the search vector (every recording, its weight, the layout)."""
+        layout = self.layout or Layout.plain(self.model.names, len(self.problems))
+        return JointProblem(tuple(self.problems), tuple(float(w) for w in self.joint_weights), layout)
+
+    def physical_precision(self) -> list[float]:
+        """The memory precision of every entry of the search vector: a model parameter's (given,
+        else the model's; Table 29 for the paper's), 1e-6 of the range for the observation's."""
+        given = {base_name(n): p.precision for n, p in self.params.items() if p.precision is not None and base_name(n) in self.model.names}
+        model_prec = dict(zip(self.model.names, physical_precision(given or None, self.model)))
+        lo, hi = self.params.lower, self.params.upper
+        out = []
+        for k, (n, p) in enumerate(self.params.items()):
+            b = base_name(n)
+            out.append(float(model_prec[b]) if b in model_prec else p.precision if p.precision is not None else 1e-6 * float(hi[k] - lo[k]))
+        return out
 
     def precision(self) -> np.ndarray:
         """The memory precisions of the free parameters in the unit cube."""
-        return unit_precision(self._given_precision(), self.space, self.model)
+        p = np.asarray(self.physical_precision())
+        if not np.all(p >= 0) or np.any(np.isnan(p)):
+            raise ValueError(f"precision needs non-negative numbers, got {p!r}")
+        return self.space.free_of(p) / np.asarray(self.space.upper - self.space.lower)
 
-    def physical_precision(self) -> list[float]:
-        return physical_precision(self._given_precision(), self.model).tolist()
 
-
-def prepare(recordings: list[Recording], model: Model, params: Parameters, integrator: Integrator, starts=None) -> Setup:
-    """The `Setup` of a fit of `recordings` with resolved `params` (`resolve_parameters`). A fixed
-    parameter's value may lie outside its range (a known value overrides it). `starts`: start rows
-    in any form `start_rows` takes, instead of the parameters' values."""
-    fixed = params.fixed
-    lo, hi = params.lower.copy(), params.upper.copy()
-    for k, n in enumerate(model.names):
+def prepare(
+    recordings: list[Recording],
+    model: Model,
+    params: Parameters,
+    integrator: Integrator,
+    starts=None,
+    observation: Observation | None = None,
+) -> Setup:
+    """The `Setup` of a fit of `recordings` with resolved `params` (`resolve_parameters`; may hold
+    the observation's parameters too) and the `observation` (loss, initial states, offsets,
+    delays; default the paper's terms): the search vector (`dcjax.fitting.vector`), its space and
+    the problems. A fixed parameter's value may lie outside its range (a known value overrides
+    it). `starts`: start rows in any form `start_rows` takes, instead of the parameters' values."""
+    observation = (observation or Observation()).check(model)
+    own, extras = split_parameters(params, model)
+    local = [n for n, p in own.items() if p.local and not p.vary]
+    if local and len(recordings) > 1:
+        raise ValueError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
+    layout, vec = search_vector(model, list(recordings), own, extras, observation)
+    fixed = vec.fixed
+    lo, hi = vec.lower.copy(), vec.upper.copy()
+    for k, n in enumerate(vec.names):
         if n in fixed and not lo[k] <= fixed[n] <= hi[k]:
             lo[k] = hi[k] = fixed[n]
-    space = make_space(model, Bounds(lo, hi, model.names), fixed)
+    space = vector_space(vec.names, Bounds(lo, hi, vec.names), fixed, f"model {model.name}")
     weights = channel_weights(recordings, model)
-    problems = [make_problem(r, integrator, weights, model=model) for r in recordings]
-    x0 = starts if starts is not None else (params.start or None)
-    return Setup(
-        list(recordings), model, params, integrator, problems, space, start_rows(x0, model, space), joint_weights(recordings), weights
-    )
+    problems = [make_problem(r, integrator, weights, model=model, loss=observation.loss, initial=observation.initial_values(model, r))
+                for r in recordings]  # fmt: skip
+    x0 = starts if starts is not None else (vec.start or None)
+    jw = joint_weights(recordings, pooled=observation.loss.normalize == "none")
+    trivial = layout == Layout.plain(model.names, len(recordings))
+    return Setup(list(recordings), model, vec, integrator, problems, space, start_rows(x0, model, space), jw, weights, observation,
+                 None if trivial else layout)  # fmt: skip
 
 
 def settings_of(setup: Setup, search: Search) -> dict:
@@ -234,7 +294,10 @@ def settings_of(setup: Setup, search: Search) -> dict:
     recs, model, space = setup.recordings, setup.model, setup.space
     weighted = any(r.metadata.get("joint_weight") is not None for r in recs)
     start = setup.params.start
-    return {
+    observed = {} if setup.observation.plain and setup.layout is None else {
+        **setup.observation.to_dict(), "names": list(space.names), "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),
+    }  # fmt: skip
+    return observed | {
         "recording": recs[0].name if len(recs) == 1 else [r.name for r in recs],
         "data": [_source(r) for r in recs],
         "model": model_spec(model),
@@ -268,12 +331,12 @@ def _source(r: Recording):
 
 
 # -- the compiled runs ---------------------------------------------------------------------------
-def fitness(space: Space, problems: list[Problem], jw) -> FitnessFn:
-    """The population OF of unit-cube points: the (joint-weighted) eq. 24/27 of every recording."""
+def fitness(space: Space, target: JointProblem) -> FitnessFn:
+    """The population OF of unit-cube points: the (joint-weighted) eq. 24/27 of every recording
+    (or the fit's loss), with each recording's parameters and adjustments (`JointProblem`)."""
 
     def of(z):
-        x = space.to_physical(z)
-        return sum(w * objective(x, prob) for w, prob in zip(jw, problems))
+        return target.objective(space.to_physical(z))
 
     return of  # pyright: ignore[reportReturnType]
 
@@ -328,21 +391,21 @@ def _per_device(fn, mesh, n_args: int):
     return jax.shard_map(fn, mesh=mesh, in_specs=(spec, *[rep] * (n_args - 1)), out_specs=spec, check_vma=False)
 
 
-def _batched_runs(search: Search, jw, mesh, dim, progress: bool = False):
-    """All runs as one function of (keys, problems, space, precision, x0, hyperparameters,
-    token): data are arguments, not constants, so recordings of equal length (and other weights
-    or bounds) reuse one executable. With `progress` each device reports the fraction done
+def _batched_runs(search: Search, mesh, dim, progress: bool = False):
+    """All runs as one function of (keys, target, space, precision, x0, hyperparameters,
+    token): data are arguments, not constants, so recordings of equal length (and other
+    bounds) reuse one executable. With `progress` each device reports the fraction done
     `PROGRESS_CHUNKS` times (`jax.debug.callback`, same results)."""
     strategy = search.strategy
     t_max = iteration_limit(strategy, search.budget, search.generations)
 
-    def device_runs(keys, problems, space, prec, x0, hyper, token):
+    def device_runs(keys, target, space, prec, x0, hyper, token):
         report = None
         if progress:
             device = jax.lax.axis_index("runs") if mesh is not None else 0
             report = lambda done: jax.debug.callback(_report, token, device, done)
         return run_batch(
-            with_hyperparameters(strategy, hyper), keys, fitness(space, problems, jw), search.budget, dim, search.memory, prec,
+            with_hyperparameters(strategy, hyper), keys, fitness(space, target), search.budget, dim, search.memory, prec,
             search.generations, x0, report=report, report_every=max(1, -(-t_max // PROGRESS_CHUNKS)),
         )  # fmt: skip
 
@@ -364,12 +427,12 @@ def run_setup(setup: Setup, search: Search, progress=None):
     keys = shard(fold_keys(search.seed, padded_size(runs, devices)), mesh, "runs")
     token = next(_TOKENS)
     z0 = None if setup.starts is None else jnp.asarray(setup.starts)
-    args = (keys, setup.problems, setup.space, prec, z0, hyperparameters(search.strategy), jnp.asarray(token, jnp.int64))
-    jw = tuple(setup.joint_weights)
+    target = setup.target
+    args = (keys, target, setup.space, prec, z0, hyperparameters(search.strategy), jnp.asarray(token, jnp.int64))
     show = progress is not None and progress is not False
-    cache_key = (*compile_key(search), jw, len(devices), kernel_mode(), leaf_signature(args), show)
+    cache_key = (*compile_key(search), target.weights, target.layout, len(devices), kernel_mode(), leaf_signature(args), show)
     t0 = time.perf_counter()
-    compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_runs(search, jw, mesh, setup.space.dim, show), args)
+    compiled, reused = EXECUTABLES.get(cache_key, lambda: _batched_runs(search, mesh, setup.space.dim, show), args)
     t1 = time.perf_counter()
     total = runs * iteration_limit(search.strategy, search.budget, search.generations)
     report = (progress if callable(progress) else _tqdm_progress(total)) if show else None
@@ -394,7 +457,7 @@ def polish_runs(run_x, setup: Setup):
     from .polish import polish_batch
 
     t0 = time.perf_counter()
-    pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), setup.problems, setup.space, setup.joint_weights))
+    pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), setup.target, setup.space))
     info = {
         "of_before": np.asarray(pol.of_before).tolist(),
         "of_after": np.asarray(pol.of_after).tolist(),
@@ -415,7 +478,7 @@ def make_result(setup: Setup, search: Search, out, timing: dict) -> FitResult:
     best = int(np.argmin(run_of))
     memory = search.memory is not None
     return FitResult(
-        best_values=dict(zip(setup.model.names, map(float, run_x[best]))),
+        best_values=dict(zip(setup.space.names, map(float, run_x[best]))),
         of=float(run_of[best]),
         run_of=run_of,
         run_params=run_x,
@@ -431,6 +494,8 @@ def make_result(setup: Setup, search: Search, out, timing: dict) -> FitResult:
         model=setup.model,
         fixed=setup.space.fixed,
         integrator=setup.integrator,
+        observation=setup.observation,
+        layout=setup.layout,
     )
 
 

@@ -21,6 +21,7 @@ from ..simulation.integrators import RK4, AutoSubsteps, Integrator, integrator_f
 from ..strategies import Strategy, make_strategy
 from ..strategies.memory import MemoryAssistance
 from .engine import Search, fit_setup, prepare, resolve_parameters
+from .observation import Observation
 from .result import FitResult
 
 
@@ -36,6 +37,23 @@ def search_of(method, runs, budget, generations, seed, memory, polish) -> Search
     """The typed `Search` of `fit`'s options (a method name becomes its strategy, NP = 70)."""
     strategy = make_strategy(method) if not isinstance(method, Strategy) else method
     return Search(strategy, memory, runs, budget, generations, seed, polish)
+
+
+def observation_of(model: Model, loss=None, initial=None, offsets=(), delays=(), polish: bool = False) -> Observation:
+    """The typed `Observation` of `fit`'s options, checked against `model` (one-line errors)."""
+    from ..simulation.losses import Loss, get_loss
+
+    if loss is not None and not isinstance(loss, (str, Loss)):
+        raise ValueError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss (dcjax.L1(), dcjax.Huber(delta=0.1)), got {loss!r}")
+    if initial is not None and not isinstance(initial, dict):
+        raise ValueError(f"initial must be a state -> number|'measured'|'derivative'|'fit' mapping, got {initial!r}")
+    for what, names in (("offsets", offsets), ("delays", delays)):
+        if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+            raise ValueError(f"{what} must be a list of channel names, got {names!r}")
+    obs = Observation(get_loss(loss), dict(initial or {}), tuple(offsets), tuple(delays)).check(model)
+    if polish and not obs.loss.least_squares:
+        raise ValueError(f"polish: Levenberg-Marquardt needs a least-squares loss (sse or huber); the {obs.loss.spec} loss has none")
+    return obs
 
 
 def check_integrator(integrator, model: Model | None = None) -> Integrator | AutoSubsteps:
@@ -65,6 +83,10 @@ def fit(
     seed: int = 0,
     memory: MemoryAssistance | None = None,
     polish: bool = False,
+    loss=None,
+    initial: dict | None = None,
+    offsets: Sequence[str] = (),
+    delays: Sequence[str] = (),
     progress=None,
 ) -> FitResult:
     """Fit `model` (default the paper's DC drive) to `data`: one recording, or a list of recordings
@@ -81,16 +103,26 @@ def fit(
     stops each run after that many iterations (default: as many as the budget buys without memory,
     paper Section 4.4). `memory`: `STMA()`, `LTMA(order=...)`, `IndexedLTMA()`. `polish`:
     Levenberg–Marquardt from every run's best. `progress`: True (a bar) or a callable taking the
-    fraction done."""
+    fraction done.
+
+    Beyond the paper's terms (`dcjax.fitting.observation`, `dcjax.fitting.vector`): `loss` (`"sse"`,
+    the default, eq. 24/27; `"l1"`; `"huber:DELTA"`; or `dcjax.SSE/L1/Huber(normalize="peak"|"none")`;
+    "none" pools a joint fit's recordings by sample count), `initial` (state -> a number,
+    `"measured"`, `"derivative"` or `"fit"`: a free `y0_<state>` per recording), `offsets`
+    (measured channels with a free additive sensor offset `offset_<channel>`), `delays` (inputs
+    with a free delay `delay_<input>` in seconds). A `Parameter(local=True)` of `params` gets one
+    value per recording of a joint fit (`Tla[0]`, `Tla[1]`, ...); `params` may also hold
+    `offset_*`, `delay_*`, `y0_*` entries (ranges, start values, `local`)."""
     recordings = recordings_of(data)
     m = get_model(model)
     integrator = check_integrator(integrator, m)
     search = search_of(method, runs, budget, generations, seed, memory, polish)
+    observation = observation_of(m, loss, initial, offsets, delays, polish)
     resolved = resolve_parameters(params, recordings, m)
     if isinstance(integrator, AutoSubsteps):
-        result = fit_auto_substeps(recordings, m, resolved, integrator, search, progress)
+        result = fit_auto_substeps(recordings, m, resolved, integrator, search, progress, observation)
     else:
-        result = fit_setup(prepare(recordings, m, resolved, integrator), search, progress)
+        result = fit_setup(prepare(recordings, m, resolved, integrator, observation=observation), search, progress)
     result.checks = recording_findings(recordings, m)
     return result
 
@@ -109,7 +141,9 @@ def recording_findings(recordings: list[Recording], model: Model) -> list:
     return out
 
 
-def fit_auto_substeps(recordings, model, params: Parameters, auto: AutoSubsteps, search: Search, progress=None) -> FitResult:
+def fit_auto_substeps(
+    recordings, model, params: Parameters, auto: AutoSubsteps, search: Search, progress=None, observation: Observation | None = None
+) -> FitResult:
     """Paper Section 5: fit at ND = 1; at its best parameters compare the simulation at ND = 1, 2,
     4, ... with an adaptive diffrax reference (`dcjax.simulation.diffrax_reference`) and take the
     first ND whose error (max over channels of max |y - y_ref| / max |y_measured|) is at most
@@ -121,10 +155,12 @@ def fit_auto_substeps(recordings, model, params: Parameters, auto: AutoSubsteps,
     kind = type(auto.integrator)
 
     def fit_at(nd: int) -> FitResult:
-        return fit_setup(prepare(recordings, model, params, kind(substeps=nd)), search, progress)
+        return fit_setup(prepare(recordings, model, params, kind(substeps=nd), observation=observation), search, progress)
 
     def errors_at(result: FitResult, nds):
-        x = np.array([result.best_values[n] for n in result.names])
+        x = np.array([result.best_values[n] for n in model.names]) if result.layout is None else None
+        if x is None:
+            raise ValueError("nd auto: not with local parameters, fitted initial states, offsets or delays; give --nd")
         refs = [reference_simulate_jit(x, p) for p in result.problems()]
         weights = tuple(result.settings["weights"])
         out = {}

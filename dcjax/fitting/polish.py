@@ -8,7 +8,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from ..models.space import Space
-from ..simulation.objectives import stacked_residuals
+from ..simulation.joint import JointProblem, joint_problem
 from ..simulation.problem import Problem
 
 
@@ -32,7 +32,7 @@ def _to_unit(y):
 
 def polish(
     x: Float[Array, " P"],
-    problem: Problem | list[Problem],
+    problem: Problem | list[Problem] | JointProblem,
     space: Space,
     joint_weights: list[float] | None = None,
     rtol: float = 1e-12,
@@ -40,22 +40,25 @@ def polish(
     max_steps: int = 200,
 ) -> PolishResult:
     """Minimize sum(r(x)^2) (= OF) with `optx.LevenbergMarquardt` from `x` (physical units, all
-    parameters) over the free parameters of `space`; fixed ones stay at their values.
+    parameters) over the free parameters of `space`; fixed ones stay at their values. `problem`:
+    one recording's, several (a joint fit, `joint_weights`), or a fit's `JointProblem` (its
+    search vector: local parameters, fitted initial states, offsets, delays).
 
     Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
     (relative) of a bound is moved that far inside. The result is only accepted when its OF is
     not larger than the start's; returns arrays only (no `optx.Solution`), so it vmaps.
     `converged` is False where the solver stopped at `max_steps` or failed (`sol.result`)."""
     eps = 1e-12
-    problems = problem if isinstance(problem, list) else [problem]
-    jw = joint_weights or [1.0 / len(problems)] * len(problems)
+    target = (
+        problem if isinstance(problem, JointProblem) else joint_problem(problem if isinstance(problem, list) else [problem], joint_weights)
+    )
 
     def of(x):
-        r = stacked_residuals(x, problems, jw)
+        r = target.residuals(x)
         return jnp.sum(r * r)
 
     def fn(y, _):
-        return stacked_residuals(space.to_physical(_to_unit(y)), problems, jw)
+        return target.residuals(space.to_physical(_to_unit(y)))
 
     y0 = _to_free(space.to_unit(x), eps)
     sol = optx.least_squares(fn, optx.LevenbergMarquardt(rtol=rtol, atol=atol), y0, max_steps=max_steps, throw=False)
@@ -68,4 +71,4 @@ def polish(
 
 
 polish_jit = eqx.filter_jit(polish)
-polish_batch = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None, None)))
+polish_batch = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None)))

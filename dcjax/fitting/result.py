@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
 from ..analysis.checks import Finding
@@ -15,12 +16,20 @@ from ..io.recording import Recording
 from ..models import Model, get_model, model_spec
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
-from ..models.space import Space, make_space
+from ..models.space import Space, vector_space
 from ..simulation.integrators import Integrator, get_integrator
-from ..simulation.objectives import simulate
+from ..simulation.joint import JointProblem, Layout
+from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
+from .observation import Observation
+from .vector import base_name, layout_of, rows_of, transferred, unit_of
 
-_simulate = eqx.filter_jit(simulate)  # one compile per problem structure and length, not one per call
+
+@eqx.filter_jit
+def _simulate(x, target: JointProblem, r: int):
+    """Recording r's states, one compile per problem structure and length, not one per call."""
+    return target.simulate(x, r)
+
 
 if TYPE_CHECKING:
     from ..analysis.uncertainty import Uncertainty
@@ -48,11 +57,22 @@ class FitResult:
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)
     integrator: Integrator | None = dataclasses.field(default=None, repr=False)  # None: from the settings
     checks: list = dataclasses.field(default_factory=list)  # data-check findings (`dcjax.analysis.checks.Finding`)
+    observation: Observation = dataclasses.field(default_factory=Observation, repr=False)  # loss, initial states, offsets, delays
+    layout: Layout | None = dataclasses.field(default=None, repr=False)  # None: the model's parameters, shared
     _uncertainty: object = dataclasses.field(default=None, repr=False)
 
     @property
     def names(self) -> tuple[str, ...]:
-        return self.model.names
+        """The search vector's names: the model's parameters (a local one as `Tla[0]`, `Tla[1]`,
+        ... per recording), then `y0_<state>`, `offset_<channel>`, `delay_<input>` where fitted."""
+        return self.layout.names if self.layout is not None else self.model.names
+
+    def values(self, recording: int = 0) -> dict[str, float]:
+        """The model's parameters of fitted recording `recording` (its own local values)."""
+        if self.layout is None:
+            return {n: self.best_values[n] for n in self.model.names}
+        cols = self.layout.model_cols[recording]
+        return {n: self.best_values[self.names[c]] for n, c in zip(self.model.names, cols)}
 
     @property
     def recording(self) -> Recording | None:
@@ -66,7 +86,7 @@ class FitResult:
 
     @property
     def space(self) -> Space:
-        return make_space(self.model, self.bounds, self.fixed)
+        return vector_space(self.names, self.bounds, self.fixed, f"model {self.model.name}")
 
     def integrator_used(self) -> Integrator:
         """The fitted integrator: the object itself, or (a loaded result) the one its settings name."""
@@ -74,9 +94,27 @@ class FitResult:
             return self.integrator
         return get_integrator(self.settings["integrator"], int(self.settings["nd"]))
 
-    def problems(self, recordings=None):
-        """The settings' problems (integrator, weights) for `recordings` (default: the fitted ones,
-        each with its own limit)."""
+    def _rows(self, recordings) -> list[int] | None:
+        """The fitted recording each of `recordings` is (the object, or one of the same name and
+        length), or None where one is not."""
+        if recordings is None:
+            return list(range(len(self.recordings)))
+        rows = []
+        for rec in recordings:
+            k = next((k for k, r in enumerate(self.recordings) if r is rec), None)
+            if k is None:
+                k = next((k for k, r in enumerate(self.recordings) if r.name == rec.name and len(r) == len(rec)), None)
+            if k is None:
+                return None
+            rows.append(k)
+        return rows
+
+    def _fitted(self, recordings) -> bool:
+        return self._rows(recordings) is not None
+
+    def problems(self, recordings=None, loss=None):
+        """The settings' problems (integrator, weights, loss, initial states) for `recordings`
+        (default: the fitted ones, each with its own limit); `loss` instead of the fit's."""
         s = self.settings
         recs = self.recordings if recordings is None else recordings
         if not recs:
@@ -84,7 +122,30 @@ class FitResult:
         if s.get("i_limit") is not None:  # a 0.1 result file: the limit was a setting
             recs = [r.replace(limit=float(s["i_limit"])) for r in recs]
         integ = self.integrator_used()
-        return [make_problem(r, integ, tuple(s["weights"]), model=self.model) for r in recs]
+        obs, fitted = self.observation, self._fitted(recordings)
+        return [
+            make_problem(r, integ, tuple(s["weights"]), model=self.model, loss=obs.loss if loss is None else loss,
+                         initial=obs.initial_values(self.model, r, fitted))
+            for r in recs
+        ]  # fmt: skip
+
+    def target(self, recordings=None, loss=None) -> JointProblem:
+        """The objective over the search vector for `recordings` (default the fitted ones, with
+        the fit's joint weights; others: the first recording's local values, offsets and delays,
+        the initial states as their specs say, equal shares)."""
+        probs = self.problems(recordings, loss)
+        layout = self.layout or Layout.plain(self.model.names, len(self.recordings) or 1)
+        rows = self._rows(recordings)
+        if rows is None:
+            return JointProblem(tuple(probs), (1.0 / len(probs),) * len(probs), transferred(layout, len(probs)))
+        if recordings is None:
+            jw = self.settings.get("joint_weights") or [1.0 / len(probs)] * len(probs)
+            if self.observation.loss.normalize == "none" and not self.settings.get("joint_weights") and len(probs) > 1:
+                total = sum(p.n for p in probs)
+                jw = [p.n / total for p in probs]
+        else:
+            jw = [1.0 / len(probs)] * len(probs)
+        return JointProblem(tuple(probs), tuple(float(w) for w in jw), rows_of(layout, rows))
 
     def uncertainty(self, profile: str | None = None, profile_points: int = 11) -> "FitResult":
         """A new result with standard errors, 95 % intervals, correlations and identifiability
@@ -97,15 +158,18 @@ class FitResult:
 
         space = self.space
         x = np.array([self.best_values[n] for n in self.names])
-        jw = self.settings.get("joint_weights")
-        u = uncertainty(x, self.problems(), space, weights=jw)
+        loss = self.observation.loss
+        target = self.target(loss=None if loss.least_squares else get_loss("sse", loss.normalize))
+        u = uncertainty(x, target, space)
+        u.approximation = self.observation.loss.approximation
         if profile is not None:
-            self.model.check_names([profile])
+            if profile not in self.names:
+                raise ValueError(f"unknown parameter {profile!r}; the fit's parameters are {', '.join(self.names)}")
             lo, hi = u.ci95[profile]
             k = self.names.index(profile)
             b = space.bounds
             grid = np.linspace(max(lo, float(b.lower[k])), min(hi, float(b.upper[k])), profile_points)
-            u.profile = (grid, profile_fn(x, profile, grid, self.problems(), space, weights=jw))
+            u.profile = (grid, profile_fn(x, profile, grid, target, space))
         return dataclasses.replace(self, _uncertainty=u)
 
     @property
@@ -210,7 +274,7 @@ class FitResult:
                 se = se if np.isfinite(se) else None  # a null direction: no standard error
             out.append(
                 Parameter(n, value=self.best_values[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
-                          unit=self.model.units.get(n, ""), precision=prec.get(n), stderr=se)
+                          unit=unit_of(n, self.model), precision=prec.get(n), stderr=se, local=base_name(n) in (self.settings.get("local") or ()))
             )  # fmt: skip
         return Parameters(out)
 
@@ -261,7 +325,7 @@ class FitResult:
             "timing": self.timing,
             "model": model_spec(self.model),
             "names": list(names),
-            "units": {n: self.model.units.get(n, "") for n in names},
+            "units": {n: unit_of(n, self.model) for n in names},
             "fixed": self.fixed,
             "free": [n for n in names if n not in self.fixed],
             "at_bound": self.at_bound(),
@@ -287,9 +351,18 @@ class FitResult:
         return text
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
-        """(N, S) states of the best parameters on `recording` (default: the fitted one)."""
-        prob = self.problems([recording or self.recording])[0]
-        return np.asarray(_simulate(np.array([self.best_values[n] for n in self.names]), prob))
+        """(N, S) states of the best parameters on `recording` (default: the first fitted one; a
+        fitted recording with its own local values and initial states), with the fitted sensor
+        offsets added to the measured states (as the sensors read them)."""
+        rec = recording or self.recording
+        target = self.target([rec])
+        x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
+        sim = np.array(_simulate(x, target, 0))
+        adj = target.adjustments(x, 0)
+        if adj is not None and adj.offset is not None:
+            for j, o in enumerate(self.model.output_index):
+                sim[:, o] += float(adj.offset[j])
+        return sim
 
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
@@ -322,8 +395,11 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
     if not isinstance(d, dict) or "params" not in d or "runs" not in d or "settings" not in d:
         raise ValueError(f"{path}: not a dcjax result file (needs params, runs and settings)")
     m = get_model(model if model is not None else d.get("model"))
-    names = m.names
-    m.check_names(d["params"])
+    observation = Observation.from_settings(d["settings"])
+    names = tuple(d["settings"].get("names") or m.names)
+    missing = [n for n in names if n not in d["params"]]
+    if missing:
+        raise ValueError(f"{path}: the result has no value of {', '.join(missing)} (model {m.name}: {', '.join(m.names)})")
     runs = d["runs"]
     if recordings is None:
         recordings = []
@@ -356,4 +432,6 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
         model=m,
         fixed={k: float(v) for k, v in (d.get("fixed") or {}).items()},
         checks=[Finding(**f) for f in d.get("checks") or []],
+        observation=observation,
+        layout=None if "names" not in d["settings"] else layout_of(names, m, observation, len(d["settings"].get("data") or [0])),
     )

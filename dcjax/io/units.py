@@ -12,6 +12,10 @@ UNITS: dict[str, dict[str, float]] = {
     "torque": {"Nm": 1.0, "mNm": 1e-3},
 }
 
+# The SI unit a loaded channel is in, by the model's quantity.
+SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s", "angle": "rad", "torque": "Nm",
+            "position": "m", "speed": "m/s", "force": "N"}  # fmt: skip
+
 
 def unit_factor(channel: str, unit: str, quantity: str | None) -> float:
     """SI factor of `unit` for `channel` of `quantity` (None: any known quantity)."""

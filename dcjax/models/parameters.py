@@ -25,7 +25,8 @@ _UNSET = object()
 @dataclasses.dataclass(eq=False)
 class Parameter:
     """One parameter: `value` (None: not known; a varying parameter's value seeds the search),
-    range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`."""
+    range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`, and
+    `local` (a joint fit gives each recording its own value, searched with the shared ones)."""
 
     name: str
     value: float | None = None
@@ -35,8 +36,9 @@ class Parameter:
     unit: str = ""
     precision: float | None = None
     stderr: float | None = None
+    local: bool = False
 
-    def set(self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET) -> "Parameter":
+    def set(self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET, local=_UNSET) -> "Parameter":
         """Change fields by keyword (lmfit's `Parameter.set`); returns the parameter."""
         for field, v in (("value", value), ("min", min), ("max", max), ("precision", precision), ("stderr", stderr)):
             if v is _UNSET:
@@ -44,10 +46,11 @@ class Parameter:
             if v is not None or field in ("value", "precision", "stderr"):
                 v = None if v is None else _number(v, f"{self.name}.{field}", allow_inf=field in ("min", "max"))
             setattr(self, field, v)
-        if vary is not _UNSET:
-            if not isinstance(vary, (bool, np.bool_)):
-                raise ValueError(f"{self.name}.vary must be True or False, got {vary!r}")
-            self.vary = bool(vary)
+        for field, v in (("vary", vary), ("local", local)):
+            if v is not _UNSET:
+                if not isinstance(v, (bool, np.bool_)):
+                    raise ValueError(f"{self.name}.{field} must be True or False, got {v!r}")
+                setattr(self, field, bool(v))
         return self
 
     # -- the value in arithmetic (lmfit's Parameter does the same) ------------------------------
@@ -65,7 +68,8 @@ class Parameter:
     def __repr__(self) -> str:
         se = "" if self.stderr is None else f" +/- {self.stderr:.3g}"
         fixed = "" if self.vary else " (fixed)"
-        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}>"
+        local = " (local)" if self.local else ""
+        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}{local}>"
 
     def __eq__(self, other) -> bool:
         """Another `Parameter`: every field equal; a number: the value equal."""
@@ -231,7 +235,10 @@ class Parameters(Mapping[str, Parameter]):
         def clean(v):
             return None if isinstance(v, float) and not math.isfinite(v) else v
 
-        return {n: {k: clean(v) for k, v in dataclasses.asdict(p).items() if k != "name"} for n, p in self._items.items()}
+        return {
+            n: {k: clean(v) for k, v in dataclasses.asdict(p).items() if k != "name" and not (k == "local" and not v)}
+            for n, p in self._items.items()
+        }
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Mapping]) -> "Parameters":

@@ -76,8 +76,14 @@ def make_space(model: Model, bounds: Bounds, fixed: Mapping[str, float] | None =
     bounds: a known value overrides them), plus every parameter whose bounds coincide."""
     fixed = dict(fixed or {})
     model.check_names(fixed, "fixed parameter")
+    return vector_space(tuple(model.names), bounds, fixed, f"model {model.name}")
+
+
+def vector_space(names: tuple[str, ...], bounds: Bounds, fixed: Mapping[str, float] | None = None, what: str = "the fit") -> Space:
+    """`make_space` over any named vector (a fit's search vector: the model's parameters and more)."""
+    fixed = dict(fixed or {})
     lo, hi = np.array(bounds.lower), np.array(bounds.upper)
-    values = np.zeros(model.n_params)
+    values = np.zeros(len(names))
     for n, v in fixed.items():
         try:
             v = float(v)
@@ -85,11 +91,11 @@ def make_space(model: Model, bounds: Bounds, fixed: Mapping[str, float] | None =
             raise ValueError(f"fixed value of {n} must be a number, got {v!r}") from None
         if not np.isfinite(v):
             raise ValueError(f"fixed value of {n} must be finite, got {v!r}")
-        k = model.names.index(n)
+        k = names.index(n)
         lo[k] = hi[k] = values[k] = v
     for k in np.flatnonzero(lo == hi):
         values[k] = lo[k]
     free = tuple(int(k) for k in np.flatnonzero(lo < hi))
     if not free:
-        raise ValueError(f"every parameter of model {model.name} is fixed; nothing to identify")
-    return Space(Bounds(lo, hi, model.names), jnp.asarray(values), free, tuple(model.names))
+        raise ValueError(f"every parameter of {what} is fixed; nothing to identify")
+    return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names))

@@ -54,6 +54,12 @@ def prepare(params, problem: Problem):
     return c, y
 
 
+def initial_state(problem: Problem, batch: tuple[int, ...], y0=None) -> State:
+    """The initial state broadcast to `batch`: `y0` (*batch, S) where given, else the problem's."""
+    src = problem.y0 if y0 is None else y0
+    return tuple(jnp.broadcast_to(src[..., s], batch) for s in range(len(problem.model.states)))
+
+
 def step_inputs(problem: Problem) -> Float[Array, "n-1 k"]:
     """One packed per-step input array: h, u_start (m), u_end (m) (one slice per step instead of
     several: measured 4-7 % faster)."""
@@ -64,10 +70,11 @@ def split_inputs(x, m: int):
     return x[0], tuple(x[1 + j] for j in range(m)), tuple(x[1 + m + j] for j in range(m))
 
 
-def simulate_scan(params, problem: Problem) -> Float[Array, "*batch n s"]:
+def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*batch n s"]:
     """Every state of the model at the recording's sample instants, row 0 the initial state, as
     one `lax.scan` over the samples (`dcjax.simulate` picks this or the Pallas kernel).
-    Batched parameters (leading axes) are marched in one scan: shape `(*batch, N, S)`."""
+    Batched parameters (leading axes) are marched in one scan: shape `(*batch, N, S)`.
+    `adjustments` (`dcjax.simulation.adjustments.Adjustments`): a fitted initial state, delayed inputs."""
     c, y = prepare(params, problem)
     m = problem.u_start.shape[1]
 
@@ -76,6 +83,24 @@ def simulate_scan(params, problem: Problem) -> Float[Array, "*batch n s"]:
         y = advance(c, problem, y, h, ua, ub)
         return y, jnp.stack(y, axis=-1)
 
-    _, ys = jax.lax.scan(body, y, step_inputs(problem), unroll=problem.unroll)
+    if adjustments is not None and (adjustments.y0 is not None or adjustments.delay is not None):
+        from .adjustments import delayed_inputs
+
+        batch = jnp.shape(problem.model.as_array(params))[:-1]
+        y = initial_state(problem, batch, adjustments.y0)
+        if adjustments.delay is not None:
+            u_start, u_end = delayed_inputs(problem, adjustments.delay)
+        else:
+            u_start = tuple(problem.u_start[:, j] for j in range(m))
+            u_end = tuple(problem.u_end[:, j] for j in range(m))
+
+        def body_adjusted(y, xs):
+            h, ua, ub = xs
+            y = advance(c, problem, y, h, ua, ub)
+            return y, jnp.stack(y, axis=-1)
+
+        _, ys = jax.lax.scan(body_adjusted, y, (problem.h, u_start, u_end), unroll=problem.unroll)
+    else:
+        _, ys = jax.lax.scan(body, y, step_inputs(problem), unroll=problem.unroll)
     out = jnp.concatenate([jnp.stack(y, axis=-1)[None], ys], axis=0)  # (N, *batch, S)
     return jnp.moveaxis(out, 0, -2)

@@ -4,26 +4,35 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .integrate import advance, prepare, simulate_scan, split_inputs, step_inputs
+from .adjustments import Adjustments, delayed_inputs
+from .integrate import advance, initial_state, prepare, simulate_scan, split_inputs, step_inputs
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
+from .losses import SSE
 from .problem import Problem, make_problem
 
 __all__ = ["Problem", "make_problem", "simulate", "objective", "residuals", "population_objective"]
 
 
-def simulate(params, problem: Problem) -> Float[Array, "*batch n s"]:
+def _plain(problem: Problem, adjustments: Adjustments | None) -> bool:
+    """The paper's case: eq. 24/27 (SSE over peak-normalised channels), nothing adjusted."""
+    return adjustments is None and type(problem.loss) is SSE and problem.loss.normalize == "peak"
+
+
+def simulate(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch n s"]:
     """Every state of the model at the recording's sample instants; row 0 is the initial state.
 
     `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
     `Params`. Batched parameters (leading axes) are marched in one scan and the result has shape
     `(*batch, N, S)`. `jax.vmap` over `params` gives the same. A population (P, n) goes through
-    the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU)."""
+    the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU).
+    `adjustments`: a fitted initial state and input delays (`dcjax.simulation.adjustments`; the
+    states are returned without sensor offsets)."""
     mode = kernel_mode()
-    if mode is not None:
+    if mode is not None and adjustments is None:
         x = problem.model.as_array(params)
         if x.ndim == 2:
             return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
-    return simulate_scan(params, problem)
+    return simulate_scan(params, problem, adjustments)
 
 
 # Populations of 8 * LANES members or more are padded to a multiple of LANES (repeating the last
@@ -41,7 +50,7 @@ def _finite_or_inf(of):
     return jnp.where(jnp.isfinite(of), of, jnp.inf)
 
 
-def objective(params, problem: Problem) -> Float[Array, "*batch"]:
+def objective(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch"]:
     """Eq. 27 (eq. 24 for unit weights), over the model's measured channels y_c:
 
         OF = 1/N sum_k sum_c w_c ((y_c,k - y*_c,k) / max|y*_c|)^2
@@ -49,16 +58,24 @@ def objective(params, problem: Problem) -> Float[Array, "*batch"]:
     over all N samples of the recording (k = 0 is the initial state). The sum is accumulated
     inside the time scan, so no trajectory is stored. A non-finite simulation (La or J at 0,
     overflow) gives +inf, never NaN. Batched `params` give one OF per member. A population (P, n)
-    goes through the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU)."""
+    goes through the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU).
+
+    Another `problem.loss` (`dcjax.simulation.losses`) scores each residual with its rho, and
+    `adjustments` (batched like `params`) fit the initial state, sensor offsets and input delays;
+    both are evaluated by the scan (the kernel computes eq. 24/27 only)."""
+    plain = _plain(problem, adjustments)
     mode = kernel_mode()
-    if mode is not None:
+    if mode is not None and plain:
         x = problem.model.as_array(params)
         if x.ndim == 2:
             return objective_kernel(x, problem, interpret=mode == "interpret", block=_block(x, mode))
     x = problem.model.as_array(params)
     if x.ndim == 2 and x.shape[0] >= 8 * LANES and x.shape[0] % LANES:  # whole vector lanes, no scalar tail
         p = x.shape[0]
-        return objective(jnp.pad(x, ((0, -p % LANES), (0, 0)), mode="edge"), problem)[:p]
+        pad = lambda a: jnp.pad(a, ((0, -p % LANES),) + ((0, 0),) * (a.ndim - 1), mode="edge")
+        return objective(pad(x), problem, jax.tree.map(pad, adjustments))[:p]
+    if not plain:
+        return _finite_or_inf(_scored_scan(x, problem, adjustments))
     c, y = prepare(x, problem)
     m = problem.u_start.shape[1]
     outs = problem.model.output_index
@@ -82,17 +99,56 @@ def objective(params, problem: Problem) -> Float[Array, "*batch"]:
     return _finite_or_inf(acc)
 
 
+def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
+    """The objective with the problem's loss and the adjustments, accumulated inside the scan."""
+    c, y = prepare(x, problem)
+    adj = adjustments if adjustments is not None else Adjustments()
+    y = initial_state(problem, x.shape[:-1], adj.y0)
+    m = problem.u_start.shape[1]
+    if adj.delay is not None:
+        u_start, u_end = delayed_inputs(problem, adj.delay)
+    else:
+        u_start = tuple(problem.u_start[:, j] for j in range(m))
+        u_end = tuple(problem.u_end[:, j] for j in range(m))
+    outs, loss = problem.model.output_index, problem.loss
+    norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
+    offset = [None if adj.offset is None else adj.offset[..., j] for j in range(len(outs))]
+
+    def misfit(acc, y, meas):
+        for j, o in enumerate(outs):
+            e = y[o] - meas[j] if offset[j] is None else y[o] + offset[j] - meas[j]
+            acc = acc + loss.term(e, problem.scale[j], norm[j])
+        return acc
+
+    def body(carry, xs):
+        y, acc = carry
+        h, ua, ub, meas = xs
+        y = advance(c, problem, y, h, ua, ub)
+        return (y, misfit(acc, y, meas)), None
+
+    acc = misfit(0.0, y, problem.y_meas[0])
+    (_, acc), _ = jax.lax.scan(body, (y, acc), (problem.h, u_start, u_end, problem.y_meas[1:]), unroll=problem.unroll)
+    return acc
+
+
 def population_objective(x: Float[Array, "P D"], problem: Problem) -> Float[Array, " P"]:
     """OF of every row of `x` (physical units, the model's `names` order)."""
     return objective(x, problem)
 
 
-def residuals(params, problem: Problem) -> Float[Array, "*batch cn"]:
+def residuals(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch cn"]:
     """Residual vector r with sum(r**2) == objective: sqrt(w_c/N)(y_c - y*_c)/max|y*_c| for every
-    sample of the first channel, then the next channel. Used by the Levenberg–Marquardt polish."""
-    traj = simulate(params, problem)
-    outs = problem.model.output_index
-    return jnp.concatenate([jnp.sqrt(problem.scale[j]) * (traj[..., o] - problem.y_meas[:, j]) for j, o in enumerate(outs)], axis=-1)
+    sample of the first channel, then the next channel (another loss: sign(a) sqrt(w_c/N rho(a)),
+    `Loss.residual`). Used by the Levenberg–Marquardt polish and the uncertainty analysis."""
+    traj = simulate(params, problem, adjustments)
+    outs, loss = problem.model.output_index, problem.loss
+    norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
+    off = None if adjustments is None else adjustments.offset
+    out = []
+    for j, o in enumerate(outs):
+        e = traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]
+        out.append(loss.residual(e, problem.scale[j], norm[j]))
+    return jnp.concatenate(out, axis=-1)
 
 
 def stacked_residuals(x, problems: list[Problem], weights: list[float]):

@@ -10,6 +10,7 @@ from ..deprecation import warn_deprecated
 from ..io.recording import DataError, Recording
 from ..models import Model, get_model
 from .integrators import RK4, Integrator, get_integrator, integrator_for
+from .losses import SSE, Loss, get_loss
 
 
 class Problem(eqx.Module):
@@ -26,8 +27,10 @@ class Problem(eqx.Module):
     y_meas: Float[Array, "n c"]  # the model's measured states (`model.outputs`)
     y0: Float[Array, " s"]  # initial state
     limit: Float[Array, ""] | None  # on `model.limited_state`
-    scale: Float[Array, " c"]  # w_c / (N * max|y_c|^2)
+    scale: Float[Array, " c"]  # w_c / (N * max|y_c|^2) (w_c / N without normalisation)
     integrator: Integrator = RK4()
+    norm: Float[Array, " c"] | None = None  # 1 / max|y_c| (1 without normalisation); None: the default SSE
+    loss: Loss = SSE()
     unroll: int = eqx.field(static=True, default=1)
 
     @property
@@ -52,6 +55,7 @@ def make_problem(
     initial: dict[str, float] | None = None,
     voltage: float | None = None,
     unroll: int = 1,
+    loss: Loss | str | None = None,
     **legacy,
 ) -> Problem:
     """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
@@ -65,6 +69,8 @@ def make_problem(
     - `initial`: initial state by state name; default the recording's first sample (a state the
       recording lacks starts at 0).
     - `voltage`: a constant first input (step response) instead of the recorded one.
+    - `loss`: a `dcjax.Loss` (`SSE()`, the default: eq. 24/27; `L1()`, `Huber(delta)`; each
+      normalised by the channel's peak or not), or its spec (`"l1"`, `"huber:0.1"`).
     - The supply's limit on `model.limited_state` is the recording's `limit` (None: no limit;
       `recording.replace(limit=...)` for another).
     """
@@ -73,6 +79,7 @@ def make_problem(
     if integrator is not None and not isinstance(integrator, Integrator):
         raise ValueError(f"integrator must be a dcjax.Integrator (dcjax.Euler(substeps=N), dcjax.RK4(substeps=N), ...), got {integrator!r}")
     integrator = integrator_for(model, integrator)
+    loss = get_loss(loss)
     check_positive_int("unroll", unroll)
     outs = model.outputs
     if weights is None:
@@ -125,9 +132,11 @@ def make_problem(
         y_meas=f64(y),
         y0=f64(y0),
         limit=None if limit is None or model.limited_state is None else f64(limit),
-        scale=f64(w / (n * peak**2)),
+        scale=f64(w / (n * peak**2) if loss.normalize == "peak" else w / n),
         integrator=integrator,
         unroll=int(unroll),
+        norm=None if type(loss) is SSE else f64(1.0 / peak if loss.normalize == "peak" else np.ones_like(peak)),
+        loss=loss,
     )
 
 

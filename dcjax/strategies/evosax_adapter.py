@@ -13,6 +13,9 @@ import jax.numpy as jnp
 from .base import State, Strategy, evaluate, initial_state
 
 
+PENALTY = 1e3  # per unit of squared distance outside the cube
+
+
 def evosax_names() -> list[str]:
     return sorted(ea.algorithms)
 
@@ -65,10 +68,14 @@ class Evosax(Strategy):
         algo = self._algo(state.pop.shape[1])
         params = self._params(algo)
         ka, kt = jax.random.split(key)
-        x, es = algo.ask(ka, state.aux, params)
-        x = jnp.clip(x, 0.0, 1.0)
+        raw, es = algo.ask(ka, state.aux, params)
+        x = jnp.clip(raw, 0.0, 1.0)
         fit, x, state = evaluate(fn, x, state, budget)
-        es, _ = algo.tell(kt, x, fit, es, params)
+        if self_is_pop(algo):
+            es, _ = algo.tell(kt, x, fit, es, params)
+        else:  # a distribution: told its own samples, ranked by the repaired point's OF times (1 + squared excess)
+            excess = jnp.sum((raw - x) ** 2, axis=-1)
+            es, _ = algo.tell(kt, raw, fit * (1.0 + PENALTY * excess), es, params)
         return state.replace(pop=x, fit=fit, aux=es)
 
 

@@ -1,0 +1,149 @@
+"""How a fit observes and scores its recordings beyond the model: the `Loss`, each state's
+initial value, sensor offsets on measured channels and delays of inputs (issue 28).
+
+An initial state is given per state as a number, `"measured"` (the first sample; the default
+for a measured state), `"derivative"` (the low-pass filtered derivative, at the first sample, of
+the state it is `Model.derivative_of`; the default for such a state) or `"fit"` (a free
+parameter `y0_<state>`, one per recording). Any other state starts at 0 (`Observation.notes`)."""
+
+import dataclasses
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..io.recording import Recording
+from ..models import Model
+from ..simulation.losses import Loss, get_loss
+
+SPECS = ("measured", "derivative", "fit")
+
+
+@dataclasses.dataclass(frozen=True)
+class Observation:
+    """`loss` (default `SSE()`: eq. 24/27), `initial` state -> spec (module docstring), the measured
+    channels with an additive sensor offset `offset_<channel>`, the inputs with a delay `delay_<input>` (s)."""
+
+    loss: Loss = dataclasses.field(default_factory=lambda: get_loss(None))
+    initial: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
+    offsets: tuple[str, ...] = ()
+    delays: tuple[str, ...] = ()
+
+    @property
+    def plain(self) -> bool:
+        """The paper's terms: eq. 24 from the first sample, nothing offset or delayed."""
+        return self.loss == get_loss(None) and not self.initial and not self.offsets and not self.delays
+
+    def check(self, model: Model) -> "Observation":
+        """One-line errors for what `model` does not have; returns the observation with its
+        initial specs normalised (numbers as floats, names lower-case)."""
+        initial = {}
+        for state, spec in dict(self.initial).items():
+            if state not in model.states:
+                raise ValueError(f"initial: unknown state {state!r}; model {model.name} has states {', '.join(model.states)}")
+            initial[state] = initial_spec(spec, state)
+            if initial[state] == "derivative" and state not in model.derivative_of:
+                raise ValueError(f"initial: {state}=derivative needs a state that is the derivative of another (Model.derivative_of); "
+                                 f"model {model.name} has {dict(model.derivative_of) or 'none'}")  # fmt: skip
+        bad = [c for c in self.offsets if c not in model.outputs]
+        if bad:
+            raise ValueError(f"offset: {', '.join(bad)} is not a measured channel of model {model.name} ({', '.join(model.outputs)})")
+        bad = [c for c in self.delays if c not in model.inputs]
+        if bad:
+            raise ValueError(f"delay: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
+        for what, names in (("offset", self.offsets), ("delay", self.delays)):
+            if len(set(names)) != len(names):
+                raise ValueError(f"{what}: a channel is named twice in {', '.join(names)}")
+        return dataclasses.replace(self, initial=initial, offsets=tuple(self.offsets), delays=tuple(self.delays))
+
+    def spec_of(self, state: str, model: Model, recording: Recording) -> "float | str":
+        """The initial spec of `state` for `recording`: the given one, else the default."""
+        if state in self.initial:
+            return self.initial[state]
+        if state in recording.channels:
+            return "measured"
+        src = model.derivative_of.get(state)
+        if src is not None and src in recording.channels:
+            return "derivative"
+        return 0.0
+
+    def fitted_states(self) -> tuple[str, ...]:
+        return tuple(s for s, v in self.initial.items() if v == "fit")
+
+    def initial_values(self, model: Model, recording: Recording, fitted: bool = True) -> dict[str, float]:
+        """The initial value of every state that is not fitted (`make_problem(initial=...)`);
+        `fitted=False` (a recording the fit did not see): a fitted state as its default spec."""
+        out = {}
+        for s in model.states:
+            spec = self.spec_of(s, model, recording)
+            if spec == "fit" and not fitted:
+                spec = dataclasses.replace(self, initial={k: v for k, v in self.initial.items() if k != s}).spec_of(s, model, recording)
+            if spec != "fit":
+                out[s] = initial_value(s, spec, model, recording)
+        return out
+
+    def notes(self, model: Model, recordings: list[Recording]) -> list[str]:
+        """One line per state that starts at 0 only because nothing else was said of it."""
+        out = []
+        for s in model.states:
+            if s not in self.initial and any(self.spec_of(s, model, r) == 0.0 for r in recordings):
+                out.append(f"note: state {s} is neither measured nor given: it starts at 0 (--initial {s}=VALUE|derivative|fit)")
+        return out
+
+    def to_dict(self) -> dict:
+        return {"loss": self.loss.spec, "normalize": self.loss.normalize, "initial": dict(self.initial),
+                "offsets": list(self.offsets), "delays": list(self.delays)}  # fmt: skip
+
+    @classmethod
+    def from_settings(cls, settings: Mapping) -> "Observation":
+        """The observation a result's settings record (a 0.1/0.2 result: the paper's terms)."""
+        return cls(
+            get_loss(settings.get("loss") or "sse", settings.get("normalize") or "peak"),
+            dict(settings.get("initial") or {}),
+            tuple(settings.get("offsets") or ()),
+            tuple(settings.get("delays") or ()),
+        )
+
+
+def initial_spec(spec, state: str = "state") -> "float | str":
+    """A number, or one of `SPECS`; anything else is a one-line error."""
+    if isinstance(spec, str):
+        text = spec.strip().lower()
+        if text in SPECS:
+            return text
+        try:
+            spec = float(text)
+        except ValueError:
+            raise ValueError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
+    try:
+        value = float(spec)
+    except (TypeError, ValueError):
+        raise ValueError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
+    if not np.isfinite(value):
+        raise ValueError(f"initial: {state} must be finite, got {spec!r}")
+    return value
+
+
+def initial_value(state: str, spec, model: Model, recording: Recording) -> float:
+    """The number a non-fitted spec gives for `recording`."""
+    if spec == "measured":
+        if state not in recording.channels:
+            raise ValueError(f"{recording._where()}initial: {state}=measured but the recording has no channel {state}")
+        return float(recording[state][0])
+    if spec == "derivative":
+        return derivative_at_start(recording, model.derivative_of[state], state)
+    return float(spec)
+
+
+def derivative_at_start(recording: Recording, source: str, state: str = "") -> float:
+    """d(source)/dt at the first sample: a fourth-order zero-phase low-pass at a tenth of the
+    sampling rate (as the first estimate's), then a central difference (one-sided at the start)."""
+    from ..analysis.estimate import _filtered
+
+    if source not in recording.channels:
+        raise ValueError(f"{recording._where()}initial: {state}=derivative needs channel {source}, which the recording lacks")
+    t = recording.t
+    h = float(np.median(np.diff(t)))
+    y = np.asarray(recording[source], float)
+    if len(y) > 27:
+        y = _filtered(y, 1.0 / h, 0.1 / h, 4)
+    return float(np.gradient(y, t)[0])

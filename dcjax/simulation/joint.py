@@ -1,0 +1,176 @@
+"""The objective over a fit's whole search vector: the model's parameters (shared by every
+recording, or one copy per recording where local), each recording's fitted initial states, and
+sensor offsets and input delays (shared or local).
+
+`Layout` says which column of the search vector each recording's model parameters and
+adjustments come from; `JointProblem` evaluates the (joint-weighted) objective and the stacked
+residuals of a vector. Recordings of equal length and structure are stacked and evaluated by one
+`vmap`ped scan: one compilation whatever their number."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .adjustments import Adjustments
+from .objectives import objective, residuals
+from .problem import Problem
+
+Columns = tuple[tuple[int, ...], ...]  # (R, k): per recording, a column of the search vector per item
+
+
+class Layout(eqx.Module):
+    """The search vector's `names`; per recording r, `model_cols[r]` the column of each model
+    parameter; `y0_cols[r]` of each state in `y0_states` (indices into the model's states);
+    `offset_cols[r]` of each channel in `offset_channels` (indices into the measured channels);
+    `delay_cols[r]` of each input in `delay_inputs`. A state that starts at its measured first
+    sample and whose sensor has an offset (`measured_start`, indices into `offset_channels`)
+    starts at that sample less the offset."""
+
+    names: tuple[str, ...] = eqx.field(static=True)
+    model_cols: Columns = eqx.field(static=True)
+    y0_states: tuple[int, ...] = eqx.field(static=True, default=())
+    y0_cols: Columns = eqx.field(static=True, default=())
+    offset_channels: tuple[int, ...] = eqx.field(static=True, default=())
+    offset_cols: Columns = eqx.field(static=True, default=())
+    delay_inputs: tuple[int, ...] = eqx.field(static=True, default=())
+    delay_cols: Columns = eqx.field(static=True, default=())
+    measured_start: tuple[int, ...] = eqx.field(static=True, default=())  # offset channels whose state starts at the measured sample
+
+    @classmethod
+    def plain(cls, names: tuple[str, ...], recordings: int = 1) -> "Layout":
+        """The model's parameters, shared by every recording, nothing adjusted."""
+        return cls(tuple(names), (tuple(range(len(names))),) * recordings)
+
+    @property
+    def recordings(self) -> int:
+        return len(self.model_cols)
+
+    @property
+    def shared(self) -> bool:
+        """Every recording takes the model parameters from the same columns, in order."""
+        return all(c == tuple(range(len(c))) for c in self.model_cols)
+
+    @property
+    def adjusted(self) -> bool:
+        return bool(self.y0_states or self.offset_channels or self.delay_inputs)
+
+    def model_x(self, x, r: int):
+        """Recording r's model parameter vector(s) of the search vector(s) `x` (…, D)."""
+        cols = self.model_cols[r]
+        if cols == tuple(range(x.shape[-1])):
+            return x
+        return x[..., np.asarray(cols)]
+
+    def adjustments(self, x, r: int, problem: Problem) -> Adjustments | None:
+        """Recording r's `Adjustments` of the search vector(s) `x` (None: nothing adjusted)."""
+        if not self.adjusted:
+            return None
+        offset = delay = None
+        y0 = jnp.broadcast_to(problem.y0, (*x.shape[:-1], problem.y0.shape[0]))
+        if self.measured_start:
+            outs = problem.model.output_index
+            for j in self.measured_start:
+                s = outs[self.offset_channels[j]]
+                y0 = y0.at[..., s].add(-x[..., self.offset_cols[r][j]])
+        if self.y0_states:
+            y0 = y0.at[..., np.asarray(self.y0_states)].set(x[..., np.asarray(self.y0_cols[r])])
+        if self.offset_channels:
+            offset = jnp.zeros((*x.shape[:-1], problem.y_meas.shape[1]), x.dtype)
+            offset = offset.at[..., np.asarray(self.offset_channels)].set(x[..., np.asarray(self.offset_cols[r])])
+        if self.delay_inputs:
+            delay = jnp.zeros((*x.shape[:-1], problem.u_start.shape[1]), x.dtype)
+            delay = delay.at[..., np.asarray(self.delay_inputs)].set(x[..., np.asarray(self.delay_cols[r])])
+        return Adjustments(y0 if self.y0_states or self.measured_start else None, offset, delay)
+
+
+def stackable(problems) -> bool:
+    """Equal length and structure: one stacked `Problem` evaluates them all."""
+    if len(problems) < 2:
+        return False
+    first = jax.tree.structure(problems[0])
+    shapes = [tuple(np.shape(a) for a in jax.tree.leaves(p)) for p in problems]
+    return all(jax.tree.structure(p) == first for p in problems) and all(s == shapes[0] for s in shapes)
+
+
+class JointProblem(eqx.Module):
+    """One or several recordings' problems, each recording's share of the objective (`weights`,
+    static: eq. 24 per recording, summed) and the `Layout` of the search vector."""
+
+    problems: tuple[Problem, ...]
+    weights: tuple[float, ...] = eqx.field(static=True)
+    layout: Layout = eqx.field(static=True)
+
+    def __check_init__(self):
+        if len(self.problems) != len(self.weights) or len(self.problems) != self.layout.recordings:
+            raise ValueError("a JointProblem needs one weight and one layout row per recording")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.layout.names
+
+    def model_x(self, x, r: int):
+        return self.layout.model_x(x, r)
+
+    def adjustments(self, x, r: int) -> Adjustments | None:
+        return self.layout.adjustments(x, r, self.problems[r])
+
+    def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
+        """sum_r w_r OF_r(x), OF_r the recording's objective with its parameters and adjustments;
+        recordings of equal length and structure are evaluated stacked (`groups`), the sum is
+        taken in recording order."""
+        ofs: list = [None] * len(self.problems)
+        for group in self.groups():
+            if len(group) == 1:
+                r = group[0]
+                ofs[r] = objective(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
+            else:
+                stacked = self._stacked(x, group)
+                for k, r in enumerate(group):
+                    ofs[r] = stacked[k]
+        acc = 0 + self.weights[0] * ofs[0]  # in order, as a sum over the recordings one by one
+        for r in range(1, len(self.weights)):
+            acc = acc + self.weights[r] * ofs[r]
+        return acc
+
+    def groups(self) -> list[tuple[int, ...]]:
+        """The recordings in groups of equal length and structure (each evaluated by one scan)."""
+        out: dict = {}
+        for r, p in enumerate(self.problems):
+            key = (jax.tree.structure(p), tuple(np.shape(a) for a in jax.tree.leaves(p)))
+            out.setdefault(key, []).append(r)
+        return [tuple(g) for g in out.values()]
+
+    def _stacked(self, x, group: tuple[int, ...]) -> Array:
+        """(len(group), *batch): the group's OFs from one vmapped objective over its stacked problems."""
+        lay = self.layout
+        stacked = jax.tree.map(lambda *a: jnp.stack(a), *[self.problems[r] for r in group])
+        xm = x if lay.shared else jnp.stack([lay.model_x(x, r) for r in group])
+        adj = None if not lay.adjusted else jax.tree.map(lambda *a: jnp.stack(a), *[self.adjustments(x, r) for r in group])
+        return jax.vmap(objective, in_axes=(None if lay.shared else 0, 0, 0 if adj is not None else None))(xm, stacked, adj)
+
+    def residuals(self, x: Float[Array, " D"]) -> Float[Array, " m"]:
+        """Every recording's residuals (`dcjax.residuals`), each scaled by sqrt(its weight): sum r^2
+        is `objective(x)`."""
+        lay = self.layout
+        return jnp.concatenate(
+            [
+                jnp.sqrt(w) * residuals(lay.model_x(x, r), p, self.adjustments(x, r))
+                for r, (w, p) in enumerate(zip(self.weights, self.problems))
+            ]
+        )
+
+    def simulate(self, x: Float[Array, " D"], r: int = 0):
+        """Recording r's states at its samples, with its parameters and adjustments."""
+        from .objectives import simulate
+
+        return simulate(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
+
+
+def joint_problem(problems: list[Problem], weights=None, layout: Layout | None = None) -> JointProblem:
+    """`JointProblem` of `problems` (default equal shares, the model's parameters shared)."""
+    problems = list(problems)
+    weights = tuple(float(w) for w in (weights if weights is not None else [1.0 / len(problems)] * len(problems)))
+    layout = layout or Layout.plain(problems[0].model.names, len(problems))
+    return JointProblem(tuple(problems), weights, layout)

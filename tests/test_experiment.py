@@ -1,0 +1,219 @@
+"""Issue 28: the loss, the initial state, per-recording (local) parameters, sensor offsets and
+input delays, in `fit`, the CLI, result.json, `report`, `validate` and `simulate`. Data are
+generated with `dcjax.simulate` (noise-free), references are computed by hand in NumPy."""
+
+import json
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import dcjax
+from dcjax import cli
+from dcjax.fitting.engine import prepare, resolve_parameters
+from dcjax.fitting.observation import Observation, derivative_at_start
+from dcjax.io.numpy_simulator import simulate_numpy
+from dcjax.simulation.adjustments import Adjustments
+from dcjax.simulation.losses import L1, SSE, Huber, get_loss
+
+M = dcjax.DC()
+
+
+@pytest.fixture(scope="module")
+def sd1():
+    return dcjax.datasets.load("SD1")
+
+
+@pytest.fixture(scope="module")
+def truth(sd1):
+    return dict(sd1.metadata["true_params"])
+
+
+def _generated(base, p, name, adjustments=None, start=(0.0, 0.0)):
+    """A noise-free recording of the paper's motor with `base`'s time and input."""
+    prob = dcjax.make_problem(base, model=M, initial={"i_a": start[0], "omega": start[1]})
+    y = np.asarray(dcjax.simulate(p, prob, adjustments))
+    return base.replace(channels={**base.channels, "i_a": y[:, 0], "omega": y[:, 1]}, name=name, metadata={"true_params": dict(p)})
+
+
+def test_the_default_loss_is_eq_24_bit_for_bit(sd1, truth):
+    """SSE over the peak: the objective of a problem made with `loss=SSE()` is the default's bits."""
+    x = jnp.asarray([truth[n] for n in M.names]) * 1.01
+    a = dcjax.objective(x, dcjax.make_problem(sd1))
+    b = dcjax.objective(x, dcjax.make_problem(sd1, loss=SSE()))
+    assert float(a) == float(b) and float(a) > 0
+
+
+def test_l1_unnormalised_is_the_pooled_mean_absolute_error_by_hand(sd1, truth):
+    """Done when (e): `--loss l1 --normalize none` over two recordings of different lengths equals
+    the mean absolute error pooled over every sample of both, per channel, summed over channels,
+    with the trajectories of the plain NumPy simulator."""
+    other = sd1.replace(t=sd1.t[:301], channels={k: v[:301] * (1.0 + 0.01 * (k != "u_a")) for k, v in sd1.channels.items()}, name="b")
+    recs = [sd1, other]
+    x = np.array([truth[n] for n in M.names]) * np.array([1.02, 0.97, 1.01, 1.03, 0.9, 1.1, 1.0])
+    setup = prepare(recs, M, resolve_parameters("table4", recs, M), dcjax.RK4(), observation=Observation(get_loss("l1", "none")))
+    got = float(setup.target.objective(jnp.asarray(x)))
+    by_hand = 0.0
+    for j, c in enumerate(M.outputs):
+        errs = []
+        for r in recs:
+            sim = simulate_numpy(x, r.t, r.u_a, r.i_a[0], r.omega[0])
+            errs.append(np.abs(sim[:, j] - r[c]))
+        by_hand += np.concatenate(errs).mean()
+    assert got == pytest.approx(by_hand, rel=1e-12)
+    assert setup.joint_weights == pytest.approx([501 / 802, 301 / 802])
+
+
+def test_huber_is_sse_within_delta_and_linear_beyond():
+    h = Huber(delta=0.5)
+    a = jnp.asarray([-2.0, -0.5, 0.1, 0.4, 3.0])
+    np.testing.assert_allclose(h.rho(a), [2 * 0.5 * 2 - 0.25, 0.25, 0.01, 0.16, 2 * 0.5 * 3 - 0.25])
+    r = h.residual(a, 1.0, 1.0)
+    np.testing.assert_allclose(r**2, h.rho(a))
+    assert get_loss("huber:0.5") == h and get_loss("L1", "none") == L1(normalize="none")
+
+
+@pytest.mark.parametrize("spec", ["l2", "huber", "huber:-1", "huber:x", "l1:3"])
+def test_a_bad_loss_is_one_line(spec):
+    with pytest.raises(ValueError, match="loss"):
+        get_loss(spec)
+
+
+def test_local_parameters_joint_fit_recovers_each_load(tmp_path, sd1, truth, capsys):
+    """Done when (a): one motor under three loads, `--local Tla`: Ra, La, cm, J and each Tla to
+    1e-6, the report lists the three; equal-length recordings go through one vmapped objective."""
+    files = []
+    for k, tla in enumerate([0.005, 0.01, 0.02]):
+        rec = _generated(sd1, dict(truth, Tla=tla), f"load{k}", start=(sd1.i_a[0], sd1.omega[0]))
+        files.append(tmp_path / f"load{k}.csv")
+        dcjax.save_csv(rec, files[-1])
+    out = tmp_path / "fit"
+    argv = ["fit", *map(str, files), "--local", "Tla", "--bounds", "table4", "--runs", "4", "--budget", "30000", "--polish"]
+    assert cli.main([*argv, "--out", str(out)]) == 0
+    d = json.loads((out / "result.json").read_text())
+    for n in ("Ra", "La", "cm", "J"):
+        assert d["params"][n] == pytest.approx(truth[n], rel=1e-6), n
+    for k, tla in enumerate([0.005, 0.01, 0.02]):
+        assert d["params"][f"Tla[{k}]"] == pytest.approx(tla, rel=1e-6)
+    assert d["settings"]["local"] == ["Tla"] and d["parameters"]["Tla[1]"]["local"] is True
+    capsys.readouterr()
+    assert cli.main(["report", str(out / "result.json")]) == 0
+    text = capsys.readouterr().out
+    assert all(f"Tla[{k}]:" in text and f"(load{k})" in text for k in range(3))
+    res = dcjax.load_result(out / "result.json")
+    assert res.values(2)["Tla"] == pytest.approx(0.02, rel=1e-6) and res.values(0)["Ra"] == d["params"]["Ra"]
+
+
+@pytest.mark.slow
+def test_offset_and_delay_are_recovered_and_needed(truth):
+    """Done when (b): a stepped input (0 V for 5 ms), a current-sensor offset of 3 % of the peak, an
+    input delay of 2.5 samples: `offsets=["i_a"], delays=["u_a"]` recovers all seven parameters,
+    the offset and the delay to 1e-6; without them the OF is >= 100x larger."""
+    t = np.arange(501) * 1e-4
+    u = np.where(t < 0.005, 0.0, np.where(t < 0.02, 220.0, np.where(t < 0.035, 120.0, 180.0)))
+    base = dcjax.Recording(t=t, u_a=u, i_a=np.ones_like(t), omega=np.ones_like(t), name="step")
+    delay = 2.5 * 1e-4
+    clean = _generated(base, truth, "step", Adjustments(delay=jnp.asarray([delay])))
+    offset = 0.03 * float(np.max(np.abs(clean.i_a)))
+    rec = clean.replace(channels={**clean.channels, "i_a": clean.i_a + offset})
+    res = dcjax.fit(rec, M, "table4", runs=4, budget=40_000, offsets=["i_a"], delays=["u_a"], polish=True)
+    want = dict(truth, offset_i_a=offset, delay_u_a=delay)
+    assert set(res.best_values) == set(want)
+    for n, v in want.items():
+        assert res.best_values[n] == pytest.approx(v, rel=1e-6), n
+    plain = dcjax.fit(rec, M, "table4", runs=4, budget=40_000, polish=True)
+    assert plain.of >= 100 * max(res.of, 1e-30)
+    sim = res.simulate()  # as the sensor reads it: the offset added
+    np.testing.assert_allclose(sim[:, 0], rec.i_a, atol=1e-9)
+    assert "offset on i_a, delay of u_a" in res.report()
+
+
+def test_a_fitted_initial_state_of_an_unmeasured_state(sd1, truth):
+    """`initial={"omega": "fit"}` for a model that measures only the current: the speed the
+    recording started at is found (y0_omega), where the default starts it at 0 with a note."""
+
+    class CurrentOnly(dcjax.DC):
+        measured = ("i_a",)
+
+    model = CurrentOnly()
+    full = _generated(sd1, truth, "spinning", start=(0.0, 40.0))
+    rec = full.replace(channels={"u_a": full.u_a, "i_a": full.i_a})
+    params = model.parameters("table4")
+    for n in model.names:
+        if n != "Ra":
+            params[n].set(value=truth[n], vary=False)
+    with pytest.raises(ValueError, match="y0_omega=LOWER:UPPER"):  # an unmeasured state has no automatic range
+        dcjax.fit(rec, model, params, runs=1, budget=700, initial={"omega": "fit"})
+    params = dcjax.Parameters([*params.values(), dcjax.Parameter("y0_omega", min=0.0, max=100.0)])
+    res = dcjax.fit(rec, model, params, runs=2, budget=2000, initial={"omega": "fit"}, polish=True)
+    assert res.names == (*model.names, "y0_omega")
+    assert res.best_values["y0_omega"] == pytest.approx(40.0, rel=1e-6) and res.best_values["Ra"] == pytest.approx(truth["Ra"], rel=1e-6)
+    notes = Observation().notes(model, [rec])
+    assert len(notes) == 1 and "omega" in notes[0] and "starts at 0" in notes[0]
+
+
+def test_initial_specs(sd1):
+    obs = Observation(initial={"omega": 3.0}).check(M)
+    assert obs.initial_values(M, sd1) == {"i_a": float(sd1.i_a[0]), "omega": 3.0}
+    t = np.linspace(0, 1, 1001)
+    rec = dcjax.Recording(t=t, q=np.sin(2 * np.pi * t), name="pos")
+    assert derivative_at_start(rec, "q") == pytest.approx(2 * np.pi, rel=2e-2)
+    for bad, match in [({"theta": 1.0}, "unknown state"), ({"omega": "guess"}, "number, measured, derivative or fit"),
+                       ({"omega": "derivative"}, "derivative_of")]:  # fmt: skip
+        with pytest.raises(ValueError, match=match):
+            Observation(initial=bad).check(M)
+
+
+@pytest.mark.parametrize(
+    "extra,match",
+    [
+        (["--const", "kp"], "--const"),
+        (["--initial", "omega=sideways"], "number, measured, derivative or fit"),
+        (["--initial", "theta=0"], "unknown state 'theta'"),
+        (["--local", "Tla"], "--local needs a joint fit"),
+        (["--local", "Rx", "SD2"], "--local: unknown parameter Rx"),
+        (["--offset", "u_a"], "offset: u_a is not a measured channel"),
+        (["--delay", "i_a"], "delay: i_a is not an input"),
+        (["--loss", "l3"], "loss must be sse, l1 or huber:DELTA"),
+        (["--loss", "huber:0"], "delta must be a positive number"),
+        (["--loss", "l1", "--polish"], "polish: Levenberg-Marquardt needs a least-squares loss"),
+        (["--bound", "offset_omega=0:1"], "unknown parameter(s) offset_omega"),
+    ],
+)
+def test_bad_experiment_options_are_one_line(tmp_path, capsys, extra, match):
+    more = [a for a in extra if a == "SD2"]
+    extra = [a for a in extra if a != "SD2"]
+    rc = cli.main(["fit", "SD1", *more, *extra, "--runs", "1", "--budget", "700", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert rc == 2 and match in err and err.count("\n") == 1, err
+
+
+def test_equal_length_recordings_share_one_vmapped_objective(sd1, truth):
+    """A joint fit of equal-length recordings evaluates them stacked (one scan, one compile); the
+    OF is the bits of the recordings' objectives summed one by one, with local parameters too."""
+    from dcjax.simulation.joint import JointProblem, Layout, joint_problem, stackable
+
+    recs = [_generated(sd1, dict(truth, Tla=0.005 * (k + 1)), f"r{k}") for k in range(3)]
+    probs = [dcjax.make_problem(r) for r in recs]
+    assert stackable(probs) and not stackable([probs[0], dcjax.make_problem(sd1.replace(t=sd1.t[:400],
+                                              channels={c: v[:400] for c, v in sd1.channels.items()}))])  # fmt: skip
+    x = jnp.asarray([[truth[n] * (1 + 0.01 * k) for n in M.names] for k in range(5)])
+    target = joint_problem(probs)
+    by_hand = 0 + sum(w * dcjax.objective(x, p) for w, p in zip(target.weights, probs))
+    np.testing.assert_array_equal(target.objective(x), by_hand)
+    cols = tuple((0, 1, 2, 3, 4 + r, 7, 8) for r in range(3))  # Tla local: columns 4, 5, 6
+    local = JointProblem(tuple(probs), target.weights, Layout(("Ra", "La", "cm", "J", "Tla[0]", "Tla[1]", "Tla[2]", "Tlb", "Tlc"), cols))
+    xl = jnp.concatenate([x[:, :4], x[:, 4:5] * jnp.asarray([1.0, 2.0, 4.0]), x[:, 5:]], axis=1)
+    want = sum(w * dcjax.objective(xl[:, list(c)], p) for w, p, c in zip(target.weights, probs, cols))
+    np.testing.assert_array_equal(local.objective(xl), 0 + want)
+
+
+def test_mixed_lengths_are_grouped_and_summed_in_order(sd1, truth):
+    from dcjax.simulation.joint import joint_problem
+
+    short = sd1.replace(t=sd1.t[:400], channels={c: v[:400] for c, v in sd1.channels.items()}, name="short")
+    probs = [dcjax.make_problem(r) for r in (sd1, short, _generated(sd1, dict(truth, Tla=0.02), "b"))]
+    target = joint_problem(probs, [0.2, 0.3, 0.5])
+    assert target.groups() == [(0, 2), (1,)]
+    x = jnp.asarray([[truth[n] * (1 + 0.02 * k) for n in M.names] for k in range(3)])
+    np.testing.assert_array_equal(target.objective(x), 0 + sum(w * dcjax.objective(x, p) for w, p in zip(target.weights, probs)))

@@ -211,9 +211,25 @@ def test_equal_length_recordings_share_one_vmapped_objective(sd1, truth):
 def test_mixed_lengths_are_grouped_and_summed_in_order(sd1, truth):
     from dcjax.simulation.joint import joint_problem
 
-    short = sd1.replace(t=sd1.t[:400], channels={c: v[:400] for c, v in sd1.channels.items()}, name="short")
+    short = sd1.replace(t=sd1.t[:150], channels={c: v[:150] for c, v in sd1.channels.items()}, name="short")
     probs = [dcjax.make_problem(r) for r in (sd1, short, _generated(sd1, dict(truth, Tla=0.02), "b"))]
     target = joint_problem(probs, [0.2, 0.3, 0.5])
     assert target.groups() == [(0, 2), (1,)]
     x = jnp.asarray([[truth[n] * (1 + 0.02 * k) for n in M.names] for k in range(3)])
     np.testing.assert_array_equal(target.objective(x), 0 + sum(w * dcjax.objective(x, p) for w, p in zip(target.weights, probs)))
+
+
+def test_close_lengths_are_padded_into_one_scan(sd1, truth):
+    """Recordings of close lengths are stacked with the shorter ones padded (steps of zero length,
+    samples that do not count): the same OF as each recording's own objective, to rounding."""
+    from dcjax.simulation.joint import joint_problem, padded
+
+    cut = lambda n: sd1.replace(t=sd1.t[:n], channels={c: v[:n] for c, v in sd1.channels.items()}, name=f"n{n}")
+    probs = [dcjax.make_problem(cut(n), loss=loss) for n, loss in ((501, "sse"), (450, "sse"), (480, "sse"))]
+    target = joint_problem(probs)
+    assert target.groups() == [(0, 1, 2)]
+    x = jnp.asarray([[truth[n] * (1 + 0.02 * k) for n in M.names] for k in range(3)])
+    alone = [dcjax.objective(x, p) for p in probs]
+    np.testing.assert_allclose(target.objective(x), sum(w * a for w, a in zip(target.weights, alone)), rtol=1e-13)
+    np.testing.assert_allclose(dcjax.objective(x, padded(probs[1], 501)), alone[1], rtol=1e-13)
+    np.testing.assert_allclose(dcjax.residuals(x[0], padded(probs[1], 501))[:450], dcjax.residuals(x[0], probs[1])[:450], rtol=1e-13)

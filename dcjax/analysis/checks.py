@@ -176,7 +176,9 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
     if rec is None:
         return out
     dt = float(np.median(np.diff(rec.t)))
-    values = result.values(0) if hasattr(result, "values") else result.best_values  # the model's parameters (a local one: the first recording's)
+    values = (
+        result.values(0) if hasattr(result, "values") else result.best_values
+    )  # the model's parameters (a local one: the first recording's)
     for name, tau in result.model.time_constants(values).items():
         if np.isfinite(tau) and dt > tau:
             out.append(Finding("slow-rate", WARNING, f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: "

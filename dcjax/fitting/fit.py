@@ -120,6 +120,9 @@ def fit(
     observation = observation_of(m, loss, initial, offsets, delays, polish)
     resolved = resolve_parameters(params, recordings, m)
     if isinstance(integrator, AutoSubsteps):
+        local = len(recordings) > 1 and any(p.local for p in resolved.values())
+        if local or observation.fitted_states() or observation.offsets or observation.delays:
+            raise ValueError("nd auto: not with local parameters, fitted initial states, offsets or delays; give the sub-steps (--nd N)")
         result = fit_auto_substeps(recordings, m, resolved, integrator, search, progress, observation)
     else:
         result = fit_setup(prepare(recordings, m, resolved, integrator, observation=observation), search, progress)
@@ -158,14 +161,13 @@ def fit_auto_substeps(
         return fit_setup(prepare(recordings, model, params, kind(substeps=nd), observation=observation), search, progress)
 
     def errors_at(result: FitResult, nds):
-        x = np.array([result.best_values[n] for n in model.names]) if result.layout is None else None
-        if x is None:
-            raise ValueError("nd auto: not with local parameters, fitted initial states, offsets or delays; give --nd")
+        x = np.array([result.best_values[n] for n in model.names])
         refs = [reference_simulate_jit(x, p) for p in result.problems()]
         weights = tuple(result.settings["weights"])
         out = {}
         for nd in nds:
-            probs = [make_problem(r, kind(substeps=nd), weights, model=model) for r in recordings]
+            obs = observation or Observation()
+            probs = [make_problem(r, kind(substeps=nd), weights, model=model, initial=obs.initial_values(model, r)) for r in recordings]
             out[nd] = max(simulation_error(x, p, ref) for p, ref in zip(probs, refs))
         return out
 

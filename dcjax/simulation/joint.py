@@ -7,6 +7,8 @@ adjustments come from; `JointProblem` evaluates the (joint-weighted) objective a
 residuals of a vector. Recordings of equal length and structure are stacked and evaluated by one
 `vmap`ped scan: one compilation whatever their number."""
 
+import dataclasses
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -85,6 +87,36 @@ class Layout(eqx.Module):
         return Adjustments(y0 if self.y0_states or self.measured_start else None, offset, delay)
 
 
+PAD_SHARE = 1.25  # pad a group's shorter recordings where that adds at most 25 % samples
+
+
+def _structure(problem: Problem):
+    """What must be equal to stack problems, their length aside."""
+    return jax.tree.structure(problem), tuple(np.shape(a)[1:] for a in jax.tree.leaves(problem))
+
+
+def _paddable(problem: Problem) -> bool:
+    from ..models.base import DiscreteModel
+
+    return not isinstance(problem.model, DiscreteModel)
+
+
+def padded(problem: Problem, n: int) -> Problem:
+    """`problem` lengthened to `n` samples that do not count: steps of zero length (the state
+    holds), the last inputs and measurements repeated, `mask` 0 there (eq. 24's 1/N and the
+    peaks stay the recording's own)."""
+    k = n - problem.n
+    mask = jnp.ones(problem.n) if problem.mask is None else problem.mask
+    if k == 0:
+        return problem if problem.mask is not None else dataclasses.replace(problem, mask=mask)
+
+    def hold(a):
+        return jnp.concatenate([a, jnp.repeat(a[-1:], k, axis=0)])
+
+    return dataclasses.replace(problem, h=jnp.concatenate([problem.h, jnp.zeros(k)]), u_start=hold(problem.u_start),
+                               u_end=hold(problem.u_end), y_meas=hold(problem.y_meas), mask=jnp.concatenate([mask, jnp.zeros(k)]))  # fmt: skip
+
+
 def stackable(problems) -> bool:
     """Equal length and structure: one stacked `Problem` evaluates them all."""
     if len(problems) < 2:
@@ -135,17 +167,32 @@ class JointProblem(eqx.Module):
         return acc
 
     def groups(self) -> list[tuple[int, ...]]:
-        """The recordings in groups of equal length and structure (each evaluated by one scan)."""
+        """The recordings in groups that one scan evaluates: equal structure, and equal length or
+        lengths close enough to pad the shorter ones (`padded`, at most `PAD_SHARE` more samples
+        in all; not for a discrete-time model, whose map would run on past the end)."""
         out: dict = {}
         for r, p in enumerate(self.problems):
-            key = (jax.tree.structure(p), tuple(np.shape(a) for a in jax.tree.leaves(p)))
-            out.setdefault(key, []).append(r)
-        return [tuple(g) for g in out.values()]
+            out.setdefault(_structure(p), []).append(r)
+        groups = []
+        for members in out.values():
+            lengths = [self.problems[r].n for r in members]
+            if len(set(lengths)) == 1 or max(lengths) * len(members) <= PAD_SHARE * sum(lengths) and _paddable(self.problems[members[0]]):
+                groups.append(tuple(members))
+                continue
+            by_length: dict = {}
+            for r in members:
+                by_length.setdefault(self.problems[r].n, []).append(r)
+            groups += [tuple(g) for g in by_length.values()]
+        return groups
 
     def _stacked(self, x, group: tuple[int, ...]) -> Array:
         """(len(group), *batch): the group's OFs from one vmapped objective over its stacked problems."""
         lay = self.layout
-        stacked = jax.tree.map(lambda *a: jnp.stack(a), *[self.problems[r] for r in group])
+        probs = [self.problems[r] for r in group]
+        n = max(p.n for p in probs)
+        if any(p.n != n for p in probs):
+            probs = [padded(p, n) for p in probs]
+        stacked = jax.tree.map(lambda *a: jnp.stack(a), *probs)
         xm = x if lay.shared else jnp.stack([lay.model_x(x, r) for r in group])
         adj = None if not lay.adjusted else jax.tree.map(lambda *a: jnp.stack(a), *[self.adjustments(x, r) for r in group])
         return jax.vmap(objective, in_axes=(None if lay.shared else 0, 0, 0 if adj is not None else None))(xm, stacked, adj)

@@ -15,7 +15,7 @@ __all__ = ["Problem", "make_problem", "simulate", "objective", "residuals", "pop
 
 def _plain(problem: Problem, adjustments: Adjustments | None) -> bool:
     """The paper's case: eq. 24/27 (SSE over peak-normalised channels), nothing adjusted."""
-    return adjustments is None and type(problem.loss) is SSE and problem.loss.normalize == "peak"
+    return adjustments is None and type(problem.loss) is SSE and problem.loss.normalize == "peak" and problem.mask is None
 
 
 def simulate(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch n s"]:
@@ -114,20 +114,24 @@ def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
     offset = [None if adj.offset is None else adj.offset[..., j] for j in range(len(outs))]
 
-    def misfit(acc, y, meas):
+    def misfit(acc, y, meas, weight):
         for j, o in enumerate(outs):
             e = y[o] - meas[j] if offset[j] is None else y[o] + offset[j] - meas[j]
-            acc = acc + loss.term(e, problem.scale[j], norm[j])
+            term = loss.term(e, problem.scale[j], norm[j])
+            acc = acc + (term if weight is None else weight * term)
         return acc
+
+    mask = problem.mask
 
     def body(carry, xs):
         y, acc = carry
-        h, ua, ub, meas = xs
+        h, ua, ub, meas, weight = xs
         y = advance(c, problem, y, h, ua, ub)
-        return (y, misfit(acc, y, meas)), None
+        return (y, misfit(acc, y, meas, weight)), None
 
-    acc = misfit(0.0, y, problem.y_meas[0])
-    (_, acc), _ = jax.lax.scan(body, (y, acc), (problem.h, u_start, u_end, problem.y_meas[1:]), unroll=problem.unroll)
+    acc = misfit(0.0, y, problem.y_meas[0], None)
+    xs = (problem.h, u_start, u_end, problem.y_meas[1:], None if mask is None else mask[1:])
+    (_, acc), _ = jax.lax.scan(body, (y, acc), xs, unroll=problem.unroll)
     return acc
 
 
@@ -147,7 +151,8 @@ def residuals(params, problem: Problem, adjustments: Adjustments | None = None) 
     out = []
     for j, o in enumerate(outs):
         e = traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]
-        out.append(loss.residual(e, problem.scale[j], norm[j]))
+        r = loss.residual(e, problem.scale[j], norm[j])
+        out.append(r if problem.mask is None else problem.mask * r)
     return jnp.concatenate(out, axis=-1)
 
 

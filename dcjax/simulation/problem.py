@@ -31,6 +31,7 @@ class Problem(eqx.Module):
     integrator: Integrator = RK4()
     norm: Float[Array, " c"] | None = None  # 1 / max|y_c| (1 without normalisation); None: the default SSE
     loss: Loss = SSE()
+    mask: Float[Array, " n"] | None = None  # 1 for a recorded sample, 0 for padding (`dcjax.simulation.joint.padded`)
     unroll: int = eqx.field(static=True, default=1)
 
     @property

@@ -12,7 +12,6 @@ import jax.numpy as jnp
 
 from .base import State, Strategy, evaluate, initial_state
 
-
 PENALTY = 1e3  # per unit of squared distance outside the cube
 
 

@@ -22,9 +22,10 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .deprecation import warn_deprecated
 from .fitting.each import fit_each
-from .fitting.engine import parameters_of, resolve_parameters, with_weights
+from .fitting.engine import with_weights
 from .fitting.fit import fit
 from .fitting.result import FitResult
+from .fitting.vector import parameters_of, resolve_parameters
 from .io.recording import Recording
 from .models import Model, get_model
 from .models.bounds import Bounds, resolve_bounds

@@ -10,8 +10,9 @@ import pytest
 
 import dcjax
 from dcjax import cli
-from dcjax.fitting.engine import prepare, resolve_parameters
+from dcjax.fitting.engine import prepare
 from dcjax.fitting.observation import Observation, derivative_at_start
+from dcjax.fitting.vector import resolve_parameters
 from dcjax.io.numpy_simulator import simulate_numpy
 from dcjax.simulation.adjustments import Adjustments
 from dcjax.simulation.losses import L1, SSE, Huber, get_loss

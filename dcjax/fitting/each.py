@@ -66,8 +66,9 @@ def fit_each(
     recording) is raised. `loss`, `initial`, `offsets`, `delays`: as `fit` takes them."""
     from ..io.loading import load_recording
     from .batch import fit_setups
-    from .engine import prepare, resolve_parameters
+    from .engine import prepare
     from .fit import check_integrator, fit, observation_of, search_of
+    from .vector import resolve_parameters
 
     m = get_model(model)
     integ = check_integrator(integrator, m)

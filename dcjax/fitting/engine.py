@@ -20,7 +20,7 @@ from jax.sharding import PartitionSpec
 from ..io.recording import Recording
 from ..models import Model
 from ..models.bounds import Bounds
-from ..models.parameters import Parameter, Parameters
+from ..models.parameters import Parameters
 from ..models.precision import physical_precision
 from ..models.space import Space, vector_space
 from ..simulation.integrators import Integrator, integrator_spec
@@ -33,7 +33,7 @@ from ..strategies.memory import MemoryAssistance
 from .observation import Observation
 from .result import FitResult, model_spec
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, shard
-from .vector import base_name, search_vector
+from .vector import base_name, search_vector, split_parameters, start_rows
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
 # (other weights, bounds or recordings of equal length) reuse them.
@@ -121,91 +121,6 @@ def joint_weights(recordings: list[Recording], pooled: bool = False) -> list[flo
     out = [1.0 if w is None else float(w) for w in jw]
     if any(not w >= 0 for w in out) or sum(out) <= 0:
         raise ValueError("joint weights must be non-negative and not all zero")
-    return out
-
-
-# -- the parameters ------------------------------------------------------------------------------
-def resolve_parameters(params, recordings: list[Recording], model: Model) -> Parameters:
-    """`Parameters` from `params`: None (the recordings' sidecar preset where they name one, else
-    "auto"), a preset name, "auto" (`dcjax.analysis.estimate.auto_bounds`: ranges from an
-    equation-error first estimate, whose values seed the search) or `Parameters` (copied)."""
-    if params is None:
-        named = {r.metadata.get("bounds") for r in recordings}
-        preset = named.pop() if len(named) == 1 else None
-        params = preset if preset in model.preset_names else "auto"
-    if isinstance(params, str) and params.lower() == "auto":
-        from ..analysis.estimate import auto_bounds
-
-        bounds, start, _ = auto_bounds(recordings, model)
-        return parameters_of(model, bounds, start)
-    if isinstance(params, str):
-        return model.parameters(params)
-    if not isinstance(params, Parameters):
-        raise ValueError(
-            f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
-        )
-    own, extras = split_parameters(params, model)
-    own.check(model.names, model.name)
-    for n, p in extras.items():
-        if p.vary and p.min > p.max:
-            raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
-    return params.copy()
-
-
-def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:
-    """(the model's parameters, the rest: the observation's `y0_*`, `offset_*`, `delay_*`)."""
-    own = [params[n] for n in params if n in model.names]
-    return Parameters(own if len(own) == len(model.names) else [params[n] for n in params]), Parameters(
-        [params[n] for n in params if n not in model.names]
-    )
-
-
-def parameters_of(model: Model, bounds: Bounds, values: Mapping[str, float] | None = None) -> Parameters:
-    """The model's `Parameters` (units and precisions of its default preset) with `bounds` and start `values`."""
-    base = model.parameters() if model.preset_names else None
-    prec = model.memory_precision or {}
-    lo, hi = np.asarray(bounds.lower), np.asarray(bounds.upper)
-    out = []
-    for k, n in enumerate(model.names):
-        p = base[n] if base is not None else Parameter(n, unit=model.units.get(n, ""), precision=prec.get(n))
-        out.append(dataclasses.replace(p, min=float(lo[k]), max=float(hi[k]), value=None if values is None else values.get(n)))
-    return Parameters(out)
-
-
-def start_rows(x0, model: Model, space: Space) -> np.ndarray | None:
-    """Start values as unit-cube rows (K, D) of the free parameters, NaN where not given. `x0`:
-    a name -> value mapping, a list of them, or full vectors (K, P) of the search vector
-    (`space.names`). A model parameter's value seeds every local copy of it."""
-    if x0 is None:
-        return None
-    names = space.names
-    rows = x0 if isinstance(x0, (list, tuple)) and x0 and isinstance(x0[0], dict) else [x0] if isinstance(x0, dict) else None
-    if rows is None:
-        full = np.atleast_2d(np.asarray(x0, dtype=np.float64))
-        if full.shape[-1] != len(names):
-            raise ValueError(f"x0 must be name -> value mappings or vectors of {len(names)} values {names}")
-        rows = [dict(zip(names, r)) for r in full]
-    lo, hi = np.asarray(space.lower), np.asarray(space.upper)
-    out = np.full((len(rows), space.dim), np.nan)
-    for i, row in enumerate(rows):
-        bad = [n for n in row if n not in names and n not in model.names]
-        if bad:
-            raise ValueError(f"unknown start value {', '.join(map(repr, bad))}; the fit's parameters are {', '.join(names)}")
-        row = {
-            **{c: v for n, v in row.items() if n not in names for c in names if base_name(c) == n},
-            **{n: v for n, v in row.items() if n in names},
-        }
-        for n, v in row.items():
-            if n in space.fixed:
-                continue
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ValueError(f"start value of {n} must be a number, got {v!r}") from None
-            j = space.free_names.index(n)
-            if not lo[j] <= v <= hi[j]:
-                raise ValueError(f"start value {n}={v:g} lies outside its bounds [{lo[j]:g}, {hi[j]:g}]")
-            out[i, j] = (v - lo[j]) / (hi[j] - lo[j])
     return out
 
 

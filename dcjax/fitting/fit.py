@@ -20,9 +20,10 @@ from ..models.parameters import Parameters
 from ..simulation.integrators import RK4, AutoSubsteps, Integrator, integrator_for
 from ..strategies import Strategy, make_strategy
 from ..strategies.memory import MemoryAssistance
-from .engine import Search, fit_setup, prepare, resolve_parameters
+from .engine import Search, fit_setup, prepare
 from .observation import Observation
 from .result import FitResult
+from .vector import resolve_parameters
 
 
 def recordings_of(data) -> list[Recording]:

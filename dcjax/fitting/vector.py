@@ -7,17 +7,23 @@ recording takes.
 Automatic ranges: an offset +-10 % of the channel's peak over the fit's recordings, a delay 0..10
 samples (in seconds, the median sample interval), a fitted initial state the measured channel's
 range widened by 10 % of its peak (or +-1.5x the largest filtered derivative for a derivative
-state); a `Parameter` of that name in the fit's `params` (`--bound`) replaces it."""
+state); a `Parameter` of that name in the fit's `params` (`--bound`) replaces it.
+
+Also here: a fit's `params` resolved (`resolve_parameters`: a preset, "auto" or `Parameters`)
+and its start values as unit-cube rows (`start_rows`)."""
 
 import dataclasses
 import re
+from collections.abc import Mapping
 
 import numpy as np
 
 from ..io.recording import Recording
 from ..io.units import SI_UNITS
 from ..models import Model
+from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
+from ..models.space import Space
 from ..simulation.joint import Layout
 from .observation import Observation, derivative_at_start
 
@@ -169,3 +175,87 @@ def rows_of(layout: Layout, rows: list[int]) -> Layout:
     pick = lambda cols: tuple(cols[r] for r in rows) if cols else ()
     return dataclasses.replace(layout, model_cols=pick(layout.model_cols), y0_cols=pick(layout.y0_cols),
                                offset_cols=pick(layout.offset_cols), delay_cols=pick(layout.delay_cols))  # fmt: skip
+
+
+def resolve_parameters(params, recordings: list[Recording], model: Model) -> Parameters:
+    """`Parameters` from `params`: None (the recordings' sidecar preset where they name one, else
+    "auto"), a preset name, "auto" (`dcjax.analysis.estimate.auto_bounds`: ranges from an
+    equation-error first estimate, whose values seed the search) or `Parameters` (copied)."""
+    if params is None:
+        named = {r.metadata.get("bounds") for r in recordings}
+        preset = named.pop() if len(named) == 1 else None
+        params = preset if preset in model.preset_names else "auto"
+    if isinstance(params, str) and params.lower() == "auto":
+        from ..analysis.estimate import auto_bounds
+
+        bounds, start, _ = auto_bounds(recordings, model)
+        return parameters_of(model, bounds, start)
+    if isinstance(params, str):
+        return model.parameters(params)
+    if not isinstance(params, Parameters):
+        raise ValueError(
+            f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
+        )
+    own, extras = split_parameters(params, model)
+    own.check(model.names, model.name)
+    for n, p in extras.items():
+        if p.vary and p.min > p.max:
+            raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
+    return params.copy()
+
+
+def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:
+    """(the model's parameters, the rest: the observation's `y0_*`, `offset_*`, `delay_*`)."""
+    own = [params[n] for n in params if n in model.names]
+    return Parameters(own if len(own) == len(model.names) else [params[n] for n in params]), Parameters(
+        [params[n] for n in params if n not in model.names]
+    )
+
+
+def parameters_of(model: Model, bounds: Bounds, values: Mapping[str, float] | None = None) -> Parameters:
+    """The model's `Parameters` (units and precisions of its default preset) with `bounds` and start `values`."""
+    base = model.parameters() if model.preset_names else None
+    prec = model.memory_precision or {}
+    lo, hi = np.asarray(bounds.lower), np.asarray(bounds.upper)
+    out = []
+    for k, n in enumerate(model.names):
+        p = base[n] if base is not None else Parameter(n, unit=model.units.get(n, ""), precision=prec.get(n))
+        out.append(dataclasses.replace(p, min=float(lo[k]), max=float(hi[k]), value=None if values is None else values.get(n)))
+    return Parameters(out)
+
+
+def start_rows(x0, model: Model, space: Space) -> np.ndarray | None:
+    """Start values as unit-cube rows (K, D) of the free parameters, NaN where not given. `x0`:
+    a name -> value mapping, a list of them, or full vectors (K, P) of the search vector
+    (`space.names`). A model parameter's value seeds every local copy of it."""
+    if x0 is None:
+        return None
+    names = space.names
+    rows = x0 if isinstance(x0, (list, tuple)) and x0 and isinstance(x0[0], dict) else [x0] if isinstance(x0, dict) else None
+    if rows is None:
+        full = np.atleast_2d(np.asarray(x0, dtype=np.float64))
+        if full.shape[-1] != len(names):
+            raise ValueError(f"x0 must be name -> value mappings or vectors of {len(names)} values {names}")
+        rows = [dict(zip(names, r)) for r in full]
+    lo, hi = np.asarray(space.lower), np.asarray(space.upper)
+    out = np.full((len(rows), space.dim), np.nan)
+    for i, row in enumerate(rows):
+        bad = [n for n in row if n not in names and n not in model.names]
+        if bad:
+            raise ValueError(f"unknown start value {', '.join(map(repr, bad))}; the fit's parameters are {', '.join(names)}")
+        row = {
+            **{c: v for n, v in row.items() if n not in names for c in names if base_name(c) == n},
+            **{n: v for n, v in row.items() if n in names},
+        }
+        for n, v in row.items():
+            if n in space.fixed:
+                continue
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"start value of {n} must be a number, got {v!r}") from None
+            j = space.free_names.index(n)
+            if not lo[j] <= v <= hi[j]:
+                raise ValueError(f"start value {n}={v:g} lies outside its bounds [{lo[j]:g}, {hi[j]:g}]")
+            out[i, j] = (v - lo[j]) / (hi[j] - lo[j])
+    return out

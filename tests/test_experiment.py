@@ -80,6 +80,7 @@ def test_a_bad_loss_is_one_line(spec):
         get_loss(spec)
 
 
+@pytest.mark.slow
 def test_local_parameters_joint_fit_recovers_each_load(tmp_path, sd1, truth, capsys):
     """Done when (a): one motor under three loads, `--local Tla`: Ra, La, cm, J and each Tla to
     1e-6, the report lists the three; equal-length recordings go through one vmapped objective."""

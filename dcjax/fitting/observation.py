@@ -2,7 +2,7 @@
 initial value, sensor offsets on measured channels and delays of inputs (issue 28).
 
 An initial state is given per state as a number, `"measured"` (the first sample; the default
-for a measured state), `"derivative"` (the low-pass filtered derivative, at the first sample, of
+for a measured state), `"derivative"` (the slope at the first sample of a quadratic through the first samples of
 the state it is `Model.derivative_of`; the default for such a state) or `"fit"` (a free
 parameter `y0_<state>`, one per recording). Any other state starts at 0 (`Observation.notes`)."""
 
@@ -82,11 +82,19 @@ class Observation:
         return out
 
     def notes(self, model: Model, recordings: list[Recording]) -> list[str]:
-        """One line per state that starts at 0 only because nothing else was said of it."""
+        """One line per state that starts at 0 only because nothing else was said of it, and per
+        state that starts at its derivative estimate (with the values)."""
         out = []
         for s in model.states:
             if s not in self.initial and any(self.spec_of(s, model, r) == 0.0 for r in recordings):
                 out.append(f"note: state {s} is neither measured nor given: it starts at 0 (--initial {s}=VALUE|derivative|fit)")
+            elif self.spec_of(s, model, recordings[0]) == "derivative":
+                src = model.derivative_of[s]
+                values = ", ".join(f"{derivative_at_start(r, src, s):.4g}" for r in recordings[:4]) + (
+                    ", ..." if len(recordings) > 4 else ""
+                )
+                out.append(f"note: state {s} starts at the derivative of {src} at the first sample ({values}); from noisy samples "
+                           f"that is rough: --initial {s}=fit fits it, --initial {s}=0 if the recording starts at rest")  # fmt: skip
         return out
 
     def to_dict(self) -> dict:
@@ -134,16 +142,18 @@ def initial_value(state: str, spec, model: Model, recording: Recording) -> float
     return float(spec)
 
 
-def derivative_at_start(recording: Recording, source: str, state: str = "") -> float:
-    """d(source)/dt at the first sample: a fourth-order zero-phase low-pass at a tenth of the
-    sampling rate (as the first estimate's), then a central difference (one-sided at the start)."""
-    from ..analysis.estimate import _filtered
+START_SAMPLES = 11  # the local quadratic of `derivative_at_start`
 
+
+def derivative_at_start(recording: Recording, source: str, state: str = "") -> float:
+    """d(source)/dt at the first sample: the slope at t0 of a least-squares quadratic through the
+    first `START_SAMPLES` samples (a Savitzky-Golay derivative at the edge; its noise is about
+    sigma / (h K^1.5), and a filter's edge transient does not enter)."""
     if source not in recording.channels:
         raise ValueError(f"{recording._where()}initial: {state}=derivative needs channel {source}, which the recording lacks")
-    t = recording.t
-    h = float(np.median(np.diff(t)))
-    y = np.asarray(recording[source], float)
-    if len(y) > 27:
-        y = _filtered(y, 1.0 / h, 0.1 / h, 4)
-    return float(np.gradient(y, t)[0])
+    k = min(len(recording), START_SAMPLES)
+    t = np.asarray(recording.t[:k], float) - float(recording.t[0])
+    y = np.asarray(recording[source][:k], float)
+    if k < 3:
+        return float((y[-1] - y[0]) / t[-1]) if k == 2 and t[-1] > 0 else 0.0
+    return float(np.polyfit(t / t[-1], y, 2)[1] / t[-1])

@@ -235,3 +235,21 @@ def test_close_lengths_are_padded_into_one_scan(sd1, truth):
     np.testing.assert_allclose(target.objective(x), sum(w * a for w, a in zip(target.weights, alone)), rtol=1e-13)
     np.testing.assert_allclose(dcjax.objective(x, padded(probs[1], 501)), alone[1], rtol=1e-13)
     np.testing.assert_allclose(dcjax.residuals(x[0], padded(probs[1], 501))[:450], dcjax.residuals(x[0], probs[1])[:450], rtol=1e-13)
+
+
+def test_local_offsets_and_the_search_vector_layout(sd1):
+    """Offsets may be local, a fitted initial state is one per recording, and the vector's names,
+    ranges and columns say so (automatic offset range: +-10 % of the channel's peak)."""
+    other = sd1.replace(name="b")
+    params = dcjax.Parameters([*M.parameters("table4").values(), dcjax.Parameter("offset_i_a", local=True)])
+    setup = prepare([sd1, other], M, params, dcjax.RK4(), observation=Observation(initial={"omega": "fit"}, offsets=("i_a",)))
+    names = setup.space.names
+    assert names == (*M.names, "y0_omega[0]", "y0_omega[1]", "offset_i_a[0]", "offset_i_a[1]")
+    peak = float(np.max(np.abs(sd1.i_a)))
+    assert setup.params["offset_i_a[1]"].max == pytest.approx(0.1 * peak) and setup.params["offset_i_a[0]"].local
+    lay = setup.layout
+    assert (
+        lay.offset_cols == ((9,), (10,)) and lay.y0_cols == ((7,), (8,)) and lay.measured_start == (0,)
+    )  # i_a starts at its sample less the offset
+    settings = dcjax.fitting.engine.settings_of(setup, dcjax.fitting.fit.search_of("de-rand-1-exp", 1, 700, None, 0, None, False))
+    assert settings["local"] == ["offset_i_a", "y0_omega"] and settings["names"] == list(names)

@@ -130,6 +130,7 @@ def test_offset_and_delay_are_recovered_and_needed(truth):
     assert "offset on i_a, delay of u_a" in res.report()
 
 
+@pytest.mark.slow
 def test_a_fitted_initial_state_of_an_unmeasured_state(sd1, truth):
     """`initial={"omega": "fit"}` for a model that measures only the current: the speed the
     recording started at is found (y0_omega), where the default starts it at 0 with a note."""

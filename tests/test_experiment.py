@@ -194,14 +194,13 @@ def test_bad_experiment_options_are_one_line(tmp_path, capsys, extra, match):
 def test_equal_length_recordings_share_one_vmapped_objective(sd1, truth):
     """A joint fit of equal-length recordings evaluates them stacked (one scan, one compile); the
     OF is the bits of the recordings' objectives summed one by one, with local parameters too."""
-    from dcjax.simulation.joint import JointProblem, Layout, joint_problem, stackable
+    from dcjax.simulation.joint import JointProblem, Layout, joint_problem
 
     recs = [_generated(sd1, dict(truth, Tla=0.005 * (k + 1)), f"r{k}") for k in range(3)]
     probs = [dcjax.make_problem(r) for r in recs]
-    assert stackable(probs) and not stackable([probs[0], dcjax.make_problem(sd1.replace(t=sd1.t[:400],
-                                              channels={c: v[:400] for c, v in sd1.channels.items()}))])  # fmt: skip
     x = jnp.asarray([[truth[n] * (1 + 0.01 * k) for n in M.names] for k in range(5)])
     target = joint_problem(probs)
+    assert target.groups() == [(0, 1, 2)]
     by_hand = 0 + sum(w * dcjax.objective(x, p) for w, p in zip(target.weights, probs))
     np.testing.assert_array_equal(target.objective(x), by_hand)
     cols = tuple((0, 1, 2, 3, 4 + r, 7, 8) for r in range(3))  # Tla local: columns 4, 5, 6

@@ -3,7 +3,8 @@ ND sub-steps as a `lax.scan` (eq. 28-29), the Pallas kernel that holds a populat
 loop on a GPU, the normalized objective (eq. 24, 27) and the adaptive diffrax reference."""
 
 from .diffrax_reference import reference_simulate, simulation_error
-from .objectives import objective, population_objective, residuals, simulate, stacked_residuals
+from .joint import stacked_residuals
+from .objectives import objective, population_objective, residuals, simulate
 from .problem import Problem, make_problem
 
 __all__ = [

@@ -117,15 +117,6 @@ def padded(problem: Problem, n: int) -> Problem:
                                u_end=hold(problem.u_end), y_meas=hold(problem.y_meas), mask=jnp.concatenate([mask, jnp.zeros(k)]))  # fmt: skip
 
 
-def stackable(problems) -> bool:
-    """Equal length and structure: one stacked `Problem` evaluates them all."""
-    if len(problems) < 2:
-        return False
-    first = jax.tree.structure(problems[0])
-    shapes = [tuple(np.shape(a) for a in jax.tree.leaves(p)) for p in problems]
-    return all(jax.tree.structure(p) == first for p in problems) and all(s == shapes[0] for s in shapes)
-
-
 class JointProblem(eqx.Module):
     """One or several recordings' problems, each recording's share of the objective (`weights`,
     static: eq. 24 per recording, summed) and the `Layout` of the search vector."""
@@ -221,3 +212,9 @@ def joint_problem(problems: list[Problem], weights=None, layout: Layout | None =
     weights = tuple(float(w) for w in (weights if weights is not None else [1.0 / len(problems)] * len(problems)))
     layout = layout or Layout.plain(problems[0].model.names, len(problems))
     return JointProblem(tuple(problems), weights, layout)
+
+
+def stacked_residuals(x, problems: list[Problem], weights: list[float]):
+    """Residuals of several recordings (a joint fit), each scaled by sqrt(its weight): sum r^2
+    is the weighted OF (eq. 24 per recording); `JointProblem.residuals` of the shared parameters."""
+    return joint_problem(problems, weights).residuals(x)

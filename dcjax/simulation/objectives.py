@@ -154,9 +154,3 @@ def residuals(params, problem: Problem, adjustments: Adjustments | None = None) 
         r = loss.residual(e, problem.scale[j], norm[j])
         out.append(r if problem.mask is None else problem.mask * r)
     return jnp.concatenate(out, axis=-1)
-
-
-def stacked_residuals(x, problems: list[Problem], weights: list[float]):
-    """Residuals of several recordings (a joint fit), each scaled by sqrt(its weight): sum r^2
-    is the weighted OF (eq. 24 per recording)."""
-    return jnp.concatenate([jnp.sqrt(w) * residuals(x, prob) for w, prob in zip(weights, problems)])

@@ -52,6 +52,7 @@ def test_sharded_fleet_equals_single_device():
     assert outs[1]["x"] == outs[4]["x"] and outs[1]["of"] == outs[4]["of"]
 
 
+@pytest.mark.slow
 def test_fleet_recovers_motors():
     """The fleet is the batch runner: each motor's full result, the bits of a fit of it alone."""
     recs = fleet_recordings(4, seed=1)

@@ -189,6 +189,7 @@ def test_memory_never_changes_a_returned_of(sd1_fn, memory):
     assert float(out.best_f) == pytest.approx(f, rel=1e-13)
 
 
+@pytest.mark.slow
 def test_memory_keeps_the_iteration_count_and_saves_fes(sd1_fn):
     """Paper Section 4.4: with memory a run makes the memory-free run's iterations, duplicates cost
     no FEs; with `generations` above that count the saved FEs buy more iterations within the budget."""

@@ -53,6 +53,7 @@ def test_scale_and_time_errors_are_clear(tmp_path, sd1, kw, match):
         dcjax.load_recording(tmp_path / "no_t.npz", **kw)
 
 
+@pytest.mark.slow
 def test_cli_scale_and_dt_fit_like_sd1(tmp_path, sd1, capsys):
     _write(tmp_path / "scaled.csv", {"t": sd1.t, "u_a": sd1.u_a, "i_a": sd1.i_a, "omega": sd1.omega / SPEED_SCALE})
     np.savez(tmp_path / "no_t.npz", u_a=sd1.u_a, i_a=sd1.i_a, omega=sd1.omega)

@@ -61,6 +61,7 @@ def test_verdicts_on_constructed_non_identifiable_case():
     assert uncertainty(x, make_problem(datasets.load("SD1")), TABLE4).reason["Tlc"] == "at a bound"
 
 
+@pytest.mark.slow
 def test_profile_likelihood_minimum_at_fit():
     rec = _noisy_sd1(3, sigma_i=0.005, sigma_w=0.5)
     prob = make_problem(rec)

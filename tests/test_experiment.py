@@ -63,6 +63,10 @@ def test_l1_unnormalised_is_the_pooled_mean_absolute_error_by_hand(sd1, truth):
         by_hand += np.concatenate(errs).mean()
     assert got == pytest.approx(by_hand, rel=1e-12)
     assert setup.joint_weights == pytest.approx([501 / 802, 301 / 802])
+    pooled = dcjax.fit(recs, M, "table4", runs=1, budget=140, loss=L1(normalize="none"))
+    assert pooled.settings["joint_weights"] == pytest.approx([501 / 802, 301 / 802])
+    x = jnp.asarray([pooled.best_values[n] for n in pooled.names])
+    assert float(pooled.target().objective(x)) == pytest.approx(pooled.of, rel=1e-12)
 
 
 def test_huber_is_sse_within_delta_and_linear_beyond():

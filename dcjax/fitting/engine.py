@@ -207,7 +207,8 @@ def prepare(
 def settings_of(setup: Setup, search: Search) -> dict:
     """What a result records of its configuration (result.json's "settings"), from the typed objects."""
     recs, model, space = setup.recordings, setup.model, setup.space
-    weighted = any(r.metadata.get("joint_weight") is not None for r in recs)
+    # the weights used where they are not equal shares (given, or pooled by sample count)
+    weighted = any(r.metadata.get("joint_weight") is not None for r in recs) or len(set(setup.joint_weights)) > 1
     start = setup.params.start
     observed = {} if setup.observation.plain and setup.layout is None else {
         **setup.observation.to_dict(), "names": list(space.names), "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),

@@ -138,11 +138,8 @@ class FitResult:
         rows = self._rows(recordings)
         if rows is None:
             return JointProblem(tuple(probs), (1.0 / len(probs),) * len(probs), transferred(layout, len(probs)))
-        if recordings is None:
+        if recordings is None:  # the fit's own weights (settings: given or pooled; else equal shares)
             jw = self.settings.get("joint_weights") or [1.0 / len(probs)] * len(probs)
-            if self.observation.loss.normalize == "none" and not self.settings.get("joint_weights") and len(probs) > 1:
-                total = sum(p.n for p in probs)
-                jw = [p.n / total for p in probs]
         else:
             jw = [1.0 / len(probs)] * len(probs)
         return JointProblem(tuple(probs), tuple(float(w) for w in jw), rows_of(layout, rows))

@@ -42,3 +42,12 @@ def delayed_inputs(problem: Problem, delay: Float[Array, "*batch m"]):
         starts.append(ud[:-1])
         ends.append(ud[1:])
     return tuple(starts), tuple(ends)
+
+
+def step_input_columns(problem: Problem, delay: Float[Array, "*batch m"] | None = None):
+    """(u_start, u_end) as tuples over the inputs: delayed by `delay` where given, else the
+    problem's own columns."""
+    if delay is not None:
+        return delayed_inputs(problem, delay)
+    m = problem.u_start.shape[1]
+    return tuple(problem.u_start[:, j] for j in range(m)), tuple(problem.u_end[:, j] for j in range(m))

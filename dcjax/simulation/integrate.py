@@ -7,6 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ..models.base import DiscreteModel
+from .adjustments import step_input_columns
 from .integrators import Integrator
 from .problem import Problem
 
@@ -84,15 +85,9 @@ def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*
         return y, jnp.stack(y, axis=-1)
 
     if adjustments is not None and (adjustments.y0 is not None or adjustments.delay is not None):
-        from .adjustments import delayed_inputs
-
         batch = jnp.shape(problem.model.as_array(params))[:-1]
         y = initial_state(problem, batch, adjustments.y0)
-        if adjustments.delay is not None:
-            u_start, u_end = delayed_inputs(problem, adjustments.delay)
-        else:
-            u_start = tuple(problem.u_start[:, j] for j in range(m))
-            u_end = tuple(problem.u_end[:, j] for j in range(m))
+        u_start, u_end = step_input_columns(problem, adjustments.delay)
 
         def body_adjusted(y, xs):
             h, ua, ub = xs

@@ -4,7 +4,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .adjustments import Adjustments, delayed_inputs
+from .adjustments import Adjustments, step_input_columns
 from .integrate import advance, initial_state, prepare, simulate_scan, split_inputs, step_inputs
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
 from .losses import SSE
@@ -101,15 +101,10 @@ def objective(params, problem: Problem, adjustments: Adjustments | None = None) 
 
 def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
     """The objective with the problem's loss and the adjustments, accumulated inside the scan."""
-    c, y = prepare(x, problem)
+    c, _ = prepare(x, problem)
     adj = adjustments if adjustments is not None else Adjustments()
     y = initial_state(problem, x.shape[:-1], adj.y0)
-    m = problem.u_start.shape[1]
-    if adj.delay is not None:
-        u_start, u_end = delayed_inputs(problem, adj.delay)
-    else:
-        u_start = tuple(problem.u_start[:, j] for j in range(m))
-        u_end = tuple(problem.u_end[:, j] for j in range(m))
+    u_start, u_end = step_input_columns(problem, adj.delay)
     outs, loss = problem.model.output_index, problem.loss
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
     offset = [None if adj.offset is None else adj.offset[..., j] for j in range(len(outs))]

@@ -21,10 +21,11 @@ jax.config.update("jax_enable_x64", True)
 from .analysis.design import design_input  # noqa: E402
 from .analysis.estimate import initial_estimate  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
-from .fitting.each import FailedFit, fit_each  # noqa: E402
-from .fitting.engine import with_weights  # noqa: E402
+from .fitting.each import fit_each  # noqa: E402
 from .fitting.fit import fit  # noqa: E402
-from .fitting.result import FitResult, load_result  # noqa: E402
+from .fitting.observation import Observation  # noqa: E402
+from .fitting.result import FailedFit, FitResult, load_result  # noqa: E402
+from .fitting.setup import with_weights  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402
 from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
@@ -64,6 +65,7 @@ __all__ = [
     "fit_each",
     "FailedFit",
     "with_weights",
+    "Observation",
     "Integrator",
     "Euler",
     "RK4",

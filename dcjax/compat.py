@@ -22,9 +22,9 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .deprecation import warn_deprecated
 from .fitting.each import fit_each
-from .fitting.engine import with_weights
 from .fitting.fit import fit
 from .fitting.result import FitResult
+from .fitting.setup import with_weights
 from .fitting.vector import parameters_of, resolve_parameters
 from .io.recording import Recording
 from .models import Model, get_model
@@ -170,22 +170,28 @@ def identify(
         check_positive_int("nd", nd)
     recs = _recordings(recording, m, weights, joint_weights, i_limit)
     params, starts = legacy_parameters(recs, m, bounds, fixed, x0, precision)
-    strategy = make_strategy(method, pop_size=pop_size, **(strategy_options or {}))
+    strategy = _with_generations(make_strategy(method, pop_size=pop_size, **(strategy_options or {})), generations)
     integ = AutoSubsteps(get_integrator(integrator), nd_tol, nd_max) if nd == "auto" else get_integrator(integrator, nd)  # pyright: ignore[reportArgumentType]
     if starts is not None:
-        return _fit_with_starts(
-            recs, m, params, starts, strategy, integ, runs, budget, generations, seed, get_memory(memory), polish, progress
-        )
-    return fit(recs, m, params, strategy, integrator=integ, runs=runs, budget=budget, generations=generations, seed=seed,
-               memory=get_memory(memory), polish=polish, progress=progress)  # fmt: skip
+        return _fit_with_starts(recs, m, params, starts, strategy, integ, runs, budget, seed, get_memory(memory), polish, progress)
+    return fit(recs, m, params, strategy, integrator=integ, runs=runs, budget=budget, seed=seed, memory=get_memory(memory),
+               polish=polish, progress=progress)  # fmt: skip
 
 
-def _fit_with_starts(recs, m, params, starts, strategy, integ, runs, budget, generations, seed, memory, polish, progress) -> FitResult:
-    from .fitting.engine import fit_setup, prepare
-    from .fitting.fit import search_of
+def _with_generations(strategy, generations):
+    """0.1's `generations=`: the strategy's own limit (0.2)."""
+    if generations is None:
+        return strategy
+    check_positive_int("generations", generations)
+    return dataclasses.replace(strategy, generations=int(generations))
 
-    search = search_of(strategy, runs, budget, generations, seed, memory, polish)
-    return fit_setup(prepare(recs, m, params, integ, starts=starts), search, progress)
+
+def _fit_with_starts(recs, m, params, starts, strategy, integ, runs, budget, seed, memory, polish, progress) -> FitResult:
+    from .fitting.engine import fit_setups
+    from .fitting.setup import plan
+
+    p = plan(m, strategy, integrator=integ, runs=runs, budget=budget, seed=seed, memory=memory, polish=polish)
+    return fit_setups(p, [p.setup(recs, params, starts=starts)], progress)[0]
 
 
 def identify_each(recordings, bounds=None, x0=None, *, method="de-rand-1-exp", integrator="rk4", nd=1, weights=None, runs=50,
@@ -200,8 +206,8 @@ def identify_each(recordings, bounds=None, x0=None, *, method="de-rand-1-exp", i
     if len(bounds) != len(recs) or len(x0) != len(recs):
         raise ValueError("bounds and x0 need one entry per recording")
     params = [legacy_parameters([r], m, b, fixed, s, precision)[0] for r, b, s in zip(recs, bounds, x0)]
-    out = fit_each(recs, m, params, make_strategy(method, pop_size=pop_size), integrator=get_integrator(integrator, nd), runs=runs,
-                   budget=budget, generations=generations, seed=seed, memory=get_memory(memory), polish=polish)  # fmt: skip
+    out = fit_each(recs, m, params, _with_generations(make_strategy(method, pop_size=pop_size), generations),
+                   integrator=get_integrator(integrator, nd), runs=runs, budget=budget, seed=seed, memory=get_memory(memory), polish=polish)  # fmt: skip
     for r in out:
         if not isinstance(r, FitResult):
             raise ValueError(f"{r.name}: {r.error}")
@@ -242,7 +248,7 @@ def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0,
         warnings.simplefilter("ignore", DeprecationWarning)
         results = identify_each(recordings, bounds=[b] * len(recordings), runs=runs, seed=seed, **options)
     first = results[0]
-    run_s = first.timing["batch_run_s"]
+    run_s = first.timing.get("batch_run_s", first.timing["run_s"])
     return FleetResult(
         params=np.array([[r.best_values[k] for k in r.names] for r in results]),
         of=np.array([r.of for r in results]),

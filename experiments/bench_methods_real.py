@@ -63,7 +63,7 @@ def cases(emps_dir: Path):
     base = dcjax.Recording(t=t, u_a=u, i_a=np.ones_like(t), omega=np.ones_like(t), name="step")
     clean = _generated(base, truth, Adjustments(delay=jnp.asarray([2.5 * (t[1] - t[0])])))
     rec = clean.replace(channels={**clean.channels, "i_a": clean.i_a + 0.03 * float(np.max(np.abs(clean.i_a)))})
-    out["offset + delay"] = dict(data=rec, model=dcjax.DC(), params="table4", offsets=["i_a"], delays=["u_a"])
+    out["offset + delay"] = dict(data=rec, model=dcjax.DC(), params="table4", observation=dcjax.Observation(offsets=("i_a",), delays=("u_a",)))
     return out
 
 
@@ -80,7 +80,7 @@ def main():
         for method in METHODS:
             t0 = time.perf_counter()
             res = dcjax.fit(case["data"], case["model"], case["params"], method, runs=args.runs, budget=args.budget,
-                            offsets=case.get("offsets", ()), delays=case.get("delays", ()))  # fmt: skip
+                            observation=case.get("observation"))  # fmt: skip
             wall = time.perf_counter() - t0
             ofs = [float(v) for v in res.run_of]
             print(f"{method:<15} {min(ofs):11.3e} {statistics.median(ofs):11.3e} {max(ofs):11.3e} {wall:7.1f}s", flush=True)

@@ -108,14 +108,16 @@ def recordings(cell: Cell) -> list:
 
 
 def method_for(cell: Cell):
+    """The cell's strategy object: its method with the cell's iteration limit (and bounds/init rules)."""
+    from dcjax.strategies import DERand1Exp, make_strategy
+
     if not (cell.bounds_rule or cell.init_rule):
-        return cell.method
+        strategy = make_strategy(cell.method)
+        return strategy if cell.generations is None else dataclasses.replace(strategy, generations=cell.generations)
     if cell.method != "de-rand-1-exp":
         raise ValueError("bounds_rule/init_rule cells are DE/rand/1/exp cells")
-    from dcjax.strategies import DERand1Exp
-
     kw = {k: v for k, v in (("bounds_rule", cell.bounds_rule), ("init_rule", cell.init_rule)) if v}
-    return DERand1Exp(**kw)
+    return DERand1Exp(generations=cell.generations, **kw)
 
 
 def run_cell(cell: Cell) -> dict:
@@ -132,7 +134,6 @@ def run_cell(cell: Cell) -> dict:
         integrator=integrator,
         runs=cell.runs,
         budget=cell.budget,
-        generations=cell.generations,
         seed=cell.seed,
         memory=None if cell.memory is None else MEMORIES[cell.memory],
         polish=cell.polish,

@@ -7,7 +7,6 @@ import pytest
 # in-process and spawn it, so keep it off (tests/test_cache.py turns it on in a temporary folder).
 os.environ.setdefault("DCJAX_NO_CACHE", "1")
 
-import dcjax
 from dcjax import datasets
 
 
@@ -18,7 +17,7 @@ def sd1():
 
 @pytest.fixture(scope="session")
 def sd1_true():
-    return dcjax.Params.from_dict(datasets.true_params("SD1"))
+    return dict(datasets.true_params("SD1"))
 
 
 def pytest_configure(config):

@@ -13,15 +13,24 @@ if n_proc > 1:
 
 import numpy as np  # noqa: E402
 
+import dcjax  # noqa: E402
 from dcjax import Recording, datasets  # noqa: E402
-from dcjax.compat import PARAM_NAMES, identify_fleet  # noqa: E402
 from dcjax.io.numpy_simulator import simulate_numpy  # noqa: E402
 
-truth = np.array([datasets.true_params("SD1")[p] for p in PARAM_NAMES])
+truth = np.array([datasets.true_params("SD1")[p] for p in dcjax.DC.names])
 x = truth * np.random.default_rng(0).uniform(0.8, 1.2, (5, 7))
 t = np.arange(101) * 1e-4
 u = np.full_like(t, 220.0)
 traj = simulate_numpy(x, t, u)
 recs = [Recording(t=t, u_a=u, i_a=traj[k, :, 0], omega=traj[k, :, 1]) for k in range(len(x))]
-r = identify_fleet(recs, budget=2100, seed=0)
-print(json.dumps({"processes": jax.process_count(), "devices": r.timing["devices"], "of": r.of.tolist(), "params": r.params.tolist()}))
+rs = dcjax.fit_each(recs, params="table4", runs=1, budget=2100, seed=0)
+print(
+    json.dumps(
+        {
+            "processes": jax.process_count(),
+            "devices": rs[0].timing["devices"],
+            "of": [r.of for r in rs],
+            "params": [r.run_params[0].tolist() for r in rs],
+        }
+    )
+)

@@ -9,9 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dcjax import Recording, load_csv, make_problem, objective, simulate
+from dcjax import RK4, Recording, load_csv, make_problem, objective, simulate
 from dcjax.analysis.validation import cross_validation, stationary_check, stationary_instants
-from dcjax.compat import Params
 from dcjax.io.emulate import MOTOR, DriveSettings, Effects, emulate, emulate_trace, md_settings
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,11 +24,11 @@ def test_effects_off_matches_core_rk4():
     s = dataclasses.replace(md_settings("MD3"), effects=Effects(), n_samples=20)
     t, u, i, w = emulate_trace(s)
     rec = Recording(t=t, u_a=u, i_a=np.where(i == 0, 1e-300, i), omega=np.where(w == 0, 1e-300, w))
-    out = np.asarray(simulate(Params.from_dict(s.params), make_problem(rec, nd=s.substeps, i0=0.0, w0=0.0)))
+    out = np.asarray(simulate(dict(s.params), make_problem(rec, RK4(substeps=s.substeps), initial={"i_a": 0.0, "omega": 0.0})))
     np.testing.assert_allclose(out[:, 0], i, rtol=1e-9, atol=1e-9 * np.max(np.abs(i)))
     np.testing.assert_allclose(out[:, 1], w, rtol=1e-9, atol=1e-9 * np.max(np.abs(w)))
     # Coarser core steps (ND = 1 on the 1 ms grid) are still close: the same ODE.
-    coarse = np.asarray(simulate(Params.from_dict(s.params), make_problem(rec, nd=1, i0=0.0, w0=0.0)))
+    coarse = np.asarray(simulate(dict(s.params), make_problem(rec, RK4(), initial={"i_a": 0.0, "omega": 0.0})))
     assert np.max(np.abs(coarse[:, 1] - w)) < 1e-3 * np.max(w)
 
 
@@ -48,7 +47,7 @@ def test_md_sets_follow_table_7():
     expect = {"MD1": (126, 11.44, 87), "MD2": (182, 11.44, 81), "MD3": (182, 14.56, 65), "MD4": (182, 14.56, 106)}
     for name, (wf, lim, n) in expect.items():
         rec = load_csv(ROOT / "data" / f"{name}.csv")
-        assert len(rec) == n and rec.i_a_limit == lim and rec.metadata["n_points"] == n
+        assert len(rec) == n and rec.limit == lim and rec.metadata["n_points"] == n
         assert abs(rec.omega[-1] - wf) < 0.03 * wf
         assert "NOT the paper" in rec.metadata["source"]
         assert np.allclose(np.diff(rec.t), 0.132)
@@ -99,7 +98,7 @@ def test_md_best_of_is_not_zero():
     """Noise and unmodelled effects: even the true parameters leave OF of order 1e-4..1e-3."""
     for name in MDS:
         rec = load_csv(ROOT / "data" / f"{name}.csv")
-        of = float(objective(Params.from_dict(rec.metadata["true_params"]), make_problem(rec, nd=10)))
+        of = float(objective(dict(rec.metadata["true_params"]), make_problem(rec, RK4(substeps=10))))
         assert 1e-5 < of < 1e-1, (name, of)
 
 

@@ -12,7 +12,6 @@ import pytest
 
 import dcjax
 from dcjax import datasets
-from dcjax.compat import identify
 from dcjax.fitting.polish import polish
 from dcjax.strategies import DERand1Exp
 
@@ -67,39 +66,14 @@ def test_a_polish_stopped_at_its_step_limit_is_not_success(sd1):
 
 
 def test_the_batched_fit_each_raises_what_is_not_a_recordings_own_failure(sd1, monkeypatch):
-    import dcjax.fitting.batch as batch
+    import dcjax.fitting.engine as engine
 
     def broken(*a, **k):
         raise RuntimeError("the compiled call broke")
 
-    monkeypatch.setattr(batch, "_run_group", broken)
+    monkeypatch.setattr(engine, "run_setups", broken)
     with pytest.raises(RuntimeError, match="the compiled call broke"):
         dcjax.fit_each([sd1, sd1], params="table4", **SMALL)
-
-
-def test_identify_warns_and_gives_the_bits_of_fit(sd1):
-    with pytest.warns(DeprecationWarning, match="dcjax.fit"):
-        old = identify(sd1, integrator="euler", nd=2, weights=(1.0, 0.5), bounds={"Ra": (10.0, 60.0)},
-                                    fixed={"Tlc": 8.55e-8}, x0={"Ra": 40.0}, memory="ltma-s2", **SMALL)  # fmt: skip
-    params = dcjax.DC().parameters("table4")
-    params["Ra"].set(min=10.0, max=60.0, value=40.0)
-    params["Tlc"].set(value=8.55e-8, vary=False)
-    new = dcjax.fit(dcjax.with_weights(sd1, {"i_a": 1.0, "omega": 0.5}), params=params, integrator=dcjax.Euler(substeps=2),
-                    memory=dcjax.LTMA(order="newest"), **SMALL)  # fmt: skip
-    np.testing.assert_array_equal(old.run_params, new.run_params)
-    np.testing.assert_array_equal(old.dups, new.dups)
-
-
-def test_the_01_names_warn_and_are_not_in_all():
-    for name in ("identify", "Params", "PARAM_NAMES", "TABLE4", "IdentificationResult", "identify_fleet"):
-        assert name not in dcjax.__all__
-        with pytest.warns(DeprecationWarning, match=f"dcjax.{name} is deprecated"):
-            getattr(dcjax, name)
-    with pytest.warns(DeprecationWarning, match="RK4"):
-        prob = dcjax.make_problem(datasets.load("SD1"), integrator="rk4", nd=3)
-    assert prob.integrator == dcjax.RK4(substeps=3)
-    with pytest.raises(AttributeError):
-        dcjax.no_such_name  # noqa: B018
 
 
 @pytest.mark.slow

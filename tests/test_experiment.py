@@ -10,11 +10,10 @@ import pytest
 
 import dcjax
 from dcjax import cli
-from dcjax.fitting.engine import prepare
+from dcjax.fitting.engine import settings_of
 from dcjax.fitting.observation import Observation, derivative_at_start
-from dcjax.fitting.vector import resolve_parameters
+from dcjax.fitting.setup import Search, plan
 from dcjax.io.numpy_simulator import simulate_numpy
-from dcjax.simulation.adjustments import Adjustments
 from dcjax.simulation.losses import L1, SSE, Huber, get_loss
 
 M = dcjax.DC()
@@ -52,7 +51,7 @@ def test_l1_unnormalised_is_the_pooled_mean_absolute_error_by_hand(sd1, truth):
     other = sd1.replace(t=sd1.t[:301], channels={k: v[:301] * (1.0 + 0.01 * (k != "u_a")) for k, v in sd1.channels.items()}, name="b")
     recs = [sd1, other]
     x = np.array([truth[n] for n in M.names]) * np.array([1.02, 0.97, 1.01, 1.03, 0.9, 1.1, 1.0])
-    setup = prepare(recs, M, resolve_parameters("table4", recs, M), dcjax.RK4(), observation=Observation(get_loss("l1", "none")))
+    setup = plan(M, observation=Observation(get_loss("l1", "none"))).setup(recs, "table4")
     got = float(setup.target.objective(jnp.asarray(x)))
     by_hand = 0.0
     for j, c in enumerate(M.outputs):
@@ -63,7 +62,7 @@ def test_l1_unnormalised_is_the_pooled_mean_absolute_error_by_hand(sd1, truth):
         by_hand += np.concatenate(errs).mean()
     assert got == pytest.approx(by_hand, rel=1e-12)
     assert setup.joint_weights == pytest.approx([501 / 802, 301 / 802])
-    pooled = dcjax.fit(recs, M, "table4", runs=1, budget=140, loss=L1(normalize="none"))
+    pooled = dcjax.fit(recs, M, "table4", runs=1, budget=140, observation=dcjax.Observation(loss=L1(normalize="none")))
     assert pooled.settings["joint_weights"] == pytest.approx([501 / 802, 301 / 802])
     x = jnp.asarray([pooled.best_values[n] for n in pooled.names])
     assert float(pooled.target().objective(x)) == pytest.approx(pooled.of, rel=1e-12)
@@ -111,30 +110,6 @@ def test_local_parameters_joint_fit_recovers_each_load(tmp_path, sd1, truth, cap
 
 
 @pytest.mark.slow
-def test_offset_and_delay_are_recovered_and_needed(truth):
-    """Done when (b): a stepped input (0 V for 5 ms), a current-sensor offset of 3 % of the peak, an
-    input delay of 2.5 samples: `offsets=["i_a"], delays=["u_a"]` recovers all seven parameters,
-    the offset and the delay to 1e-6; without them the OF is >= 100x larger."""
-    t = np.arange(501) * 1e-4
-    u = np.where(t < 0.005, 0.0, np.where(t < 0.02, 220.0, np.where(t < 0.035, 120.0, 180.0)))
-    base = dcjax.Recording(t=t, u_a=u, i_a=np.ones_like(t), omega=np.ones_like(t), name="step")
-    delay = 2.5 * 1e-4
-    clean = _generated(base, truth, "step", Adjustments(delay=jnp.asarray([delay])))
-    offset = 0.03 * float(np.max(np.abs(clean.i_a)))
-    rec = clean.replace(channels={**clean.channels, "i_a": clean.i_a + offset})
-    res = dcjax.fit(rec, M, "table4", runs=4, budget=40_000, offsets=["i_a"], delays=["u_a"], polish=True)
-    want = dict(truth, offset_i_a=offset, delay_u_a=delay)
-    assert set(res.best_values) == set(want)
-    for n, v in want.items():
-        assert res.best_values[n] == pytest.approx(v, rel=1e-6), n
-    plain = dcjax.fit(rec, M, "table4", runs=4, budget=40_000, polish=True)
-    assert plain.of >= 100 * max(res.of, 1e-30)
-    sim = res.simulate()  # as the sensor reads it: the offset added
-    np.testing.assert_allclose(sim[:, 0], rec.i_a, atol=1e-9)
-    assert "offset on i_a, delay of u_a" in res.report()
-
-
-@pytest.mark.slow
 def test_a_fitted_initial_state_of_an_unmeasured_state(sd1, truth):
     """`initial={"omega": "fit"}` for a model that measures only the current: the speed the
     recording started at is found (y0_omega), where the default starts it at 0 with a note."""
@@ -150,9 +125,9 @@ def test_a_fitted_initial_state_of_an_unmeasured_state(sd1, truth):
         if n != "Ra":
             params[n].set(value=truth[n], vary=False)
     with pytest.raises(ValueError, match="y0_omega=LOWER:UPPER"):  # an unmeasured state has no automatic range
-        dcjax.fit(rec, model, params, runs=1, budget=700, initial={"omega": "fit"})
+        dcjax.fit(rec, model, params, runs=1, budget=700, observation=dcjax.Observation(initial={"omega": "fit"}))
     params = dcjax.Parameters([*params.values(), dcjax.Parameter("y0_omega", min=0.0, max=100.0)])
-    res = dcjax.fit(rec, model, params, runs=2, budget=2000, initial={"omega": "fit"}, polish=True)
+    res = dcjax.fit(rec, model, params, runs=2, budget=2000, observation=dcjax.Observation(initial={"omega": "fit"}), polish=True)
     assert res.names == (*model.names, "y0_omega")
     assert res.best_values["y0_omega"] == pytest.approx(40.0, rel=1e-6) and res.best_values["Ra"] == pytest.approx(truth["Ra"], rel=1e-6)
     notes = Observation().notes(model, [rec])
@@ -246,7 +221,7 @@ def test_local_offsets_and_the_search_vector_layout(sd1):
     ranges and columns say so (automatic offset range: +-10 % of the channel's peak)."""
     other = sd1.replace(name="b")
     params = dcjax.Parameters([*M.parameters("table4").values(), dcjax.Parameter("offset_i_a", local=True)])
-    setup = prepare([sd1, other], M, params, dcjax.RK4(), observation=Observation(initial={"omega": "fit"}, offsets=("i_a",)))
+    setup = plan(M, observation=Observation(initial={"omega": "fit"}, offsets=("i_a",))).setup([sd1, other], params)
     names = setup.space.names
     assert names == (*M.names, "y0_omega[0]", "y0_omega[1]", "offset_i_a[0]", "offset_i_a[1]")
     peak = float(np.max(np.abs(sd1.i_a)))
@@ -255,5 +230,5 @@ def test_local_offsets_and_the_search_vector_layout(sd1):
     assert (
         lay.offset_cols == ((9,), (10,)) and lay.y0_cols == ((7,), (8,)) and lay.measured_start == (0,)
     )  # i_a starts at its sample less the offset
-    settings = dcjax.fitting.engine.settings_of(setup, dcjax.fitting.fit.search_of("de-rand-1-exp", 1, 700, None, 0, None, False))
+    settings = settings_of(setup, Search(dcjax.strategies.DERand1Exp(), runs=1, budget=700))
     assert settings["local"] == ["offset_i_a", "y0_omega"] and settings["names"] == list(names)

@@ -9,17 +9,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import dcjax
 from dcjax import Recording, datasets
-from dcjax.compat import PARAM_NAMES, identify, identify_fleet
 from dcjax.io.numpy_simulator import simulate_numpy
 
+PARAM_NAMES = dcjax.DC.names
 CODE = """
 import json, numpy as np, sys
 sys.path.insert(0, {tests!r})
 from test_fleet import fleet_recordings
-from dcjax.compat import identify_fleet
-r = identify_fleet(fleet_recordings(5), budget=2100, runs=1, seed=3)
-print(json.dumps({{"x": r.params.tolist(), "of": r.of.tolist(), "dev": r.timing["devices"]}}))
+import dcjax
+rs = dcjax.fit_each(fleet_recordings(5), params="table4", budget=2100, runs=1, seed=3)
+print(json.dumps({{"x": [r.run_params[0].tolist() for r in rs], "of": [r.of for r in rs], "dev": rs[0].timing["devices"]}}))
 """
 
 
@@ -56,23 +57,15 @@ def test_sharded_fleet_equals_single_device():
 def test_fleet_recovers_motors():
     """The fleet is the batch runner: each motor's full result, the bits of a fit of it alone."""
     recs = fleet_recordings(4, seed=1)
-    r = identify_fleet(recs, runs=1, seed=0)
-    assert r.params.shape == (4, 7) and np.all(r.fes == 140_000)
-    alone = identify(recs[2], runs=1, seed=0)
-    np.testing.assert_array_equal(r.results[2].run_params, alone.run_params)
-    assert r.results[2].success and r.results[2].nfev == alone.nfev
-    for rec, x, of in zip(recs, r.params, r.of):
+    results = dcjax.fit_each(recs, params="table4", runs=1, seed=0)
+    assert all(np.all(r.fes == 140_000) for r in results)
+    alone = dcjax.fit(recs[2], params="table4", runs=1, seed=0)
+    np.testing.assert_array_equal(results[2].run_params, alone.run_params)
+    assert results[2].success and results[2].nfev == alone.nfev
+    for rec, r in zip(recs, results):
         truth = np.array([rec.metadata["true_params"][p] for p in PARAM_NAMES])
-        assert of <= 1e-15
-        np.testing.assert_allclose(x, truth, rtol=1e-6)
-
-
-def test_fleet_bad_input():
-    recs = fleet_recordings(2)
-    with pytest.raises(ValueError, match="equal length"):
-        identify_fleet([recs[0], fleet_recordings(1, n=150)[0]])
-    with pytest.raises(ValueError, match="non-empty"):
-        identify_fleet([])
+        assert r.of <= 1e-15
+        np.testing.assert_allclose(r.run_params[0], truth, rtol=1e-6)
 
 
 @pytest.mark.slow

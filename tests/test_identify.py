@@ -1,4 +1,4 @@
-"""identify(), the LM polish, the result object and the CLI."""
+"""fit(), the LM polish, the result object and the CLI."""
 
 import json
 import os
@@ -10,11 +10,20 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import dcjax
 from dcjax import datasets, make_problem
 from dcjax.cli import main
-from dcjax.compat import PARAM_NAMES, TABLE4, identify
-from dcjax.fitting.polish import polish_jit
-from dcjax.strategies import DERand1Exp
+from dcjax.fitting.polish import levenberg_marquardt, polish_jit
+from dcjax.strategies import DERand1Exp, make_strategy
+
+NAMES = dcjax.DC.names
+BOX4 = dcjax.Bounds(dcjax.DC().parameters("table4").lower, dcjax.DC().parameters("table4").upper, NAMES)
+
+
+def fit(rec, params="table4", **kw):
+    """`dcjax.fit` with Table 4's ranges."""
+    return dcjax.fit(rec, params=params, **kw)
+
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -23,11 +32,11 @@ ROOT = Path(__file__).resolve().parent.parent
 def test_de_rand_1_exp_recovers_sd_parameters(name):
     """Paper Table 5/6: DE/rand/1/exp with RK4, NP = 70, 140,000 FEs (here 2 runs per set;
     the 50-run check is experiments/table5_sd.py)."""
-    r = identify(datasets.load(name), method="de-rand-1-exp", runs=2, seed=1)
+    r = fit(datasets.load(name), method="de-rand-1-exp", runs=2, seed=1)
     assert np.all(r.run_of <= 1e-15), r.run_of
     truth = datasets.true_params(name)
     for x in r.run_params:
-        for k, n in enumerate(PARAM_NAMES):
+        for k, n in enumerate(NAMES):
             assert abs(x[k] - truth[n]) <= 1e-6 * abs(truth[n]), (name, n, x[k], truth[n])
     assert np.all(r.fes == 140_000)
 
@@ -36,7 +45,7 @@ def test_de_rand_1_exp_recovers_sd_parameters(name):
 def test_table5_ranking_on_sd1():
     """DE/rand/1/exp best, GA worst (2 runs each, full budget)."""
     means = {
-        m: identify(datasets.load("SD1"), method=m, runs=2, seed=0).stats["mean"]
+        m: fit(datasets.load("SD1"), method=m, runs=2, seed=0).stats["mean"]
         for m in ("ga", "de-rand-1-exp", "de-best-1-bin", "tlbo", "abc")
     }
     assert means["de-rand-1-exp"] <= 1e-25
@@ -49,7 +58,7 @@ def test_table5_ranking_on_sd1():
 
 def test_same_seed_same_result_different_seed_different(sd1):
     kw = dict(method="de-rand-1-exp", runs=3, budget=3500)
-    a, b, c = identify(sd1, seed=5, **kw), identify(sd1, seed=5, **kw), identify(sd1, seed=6, **kw)
+    a, b, c = fit(sd1, seed=5, **kw), fit(sd1, seed=5, **kw), fit(sd1, seed=6, **kw)
     np.testing.assert_array_equal(a.run_of, b.run_of)
     np.testing.assert_array_equal(a.run_params, b.run_params)
     np.testing.assert_array_equal(a.history, b.history)
@@ -62,7 +71,7 @@ def test_sharded_runs_equal_single_device(tmp_path):
     """The same call with 1 and 2 XLA CPU devices gives identical results (3 runs: padded)."""
     code = (
         "import sys, json, dcjax; from dcjax import datasets;"
-        "r = dcjax.identify(datasets.load('SD1'), runs=3, budget=2100, seed=2);"
+        "r = dcjax.fit(datasets.load('SD1'), params='table4', runs=3, budget=2100, seed=2);"
         "print(json.dumps({'of': r.run_of.tolist(), 'x': r.run_params.tolist(), 'dev': r.timing['devices']}))"
     )
     outs = {}
@@ -75,14 +84,14 @@ def test_sharded_runs_equal_single_device(tmp_path):
 
 
 def test_result_object(sd1, tmp_path):
-    r = identify(sd1, method="tlbo", runs=2, budget=2100, seed=0)
+    r = fit(sd1, method="tlbo", runs=2, budget=2100, seed=0)
     d = json.loads(r.to_json(tmp_path / "r.json"))
-    assert set(d["params"]) == set(PARAM_NAMES) and d["of"] == min(x["of"] for x in d["runs"])
+    assert set(d["params"]) == set(NAMES) and d["of"] == min(x["of"] for x in d["runs"])
     assert set(d["stats"]) == {"best", "worst", "mean", "std"} and len(d["runs"]) == 2
     assert r.history.shape == (2, 15) and np.all(np.diff(r.history, axis=1) <= 0)
     assert np.all(r.fes == 2100)
     for x in r.run_params:
-        assert TABLE4.contains(x)
+        assert BOX4.contains(x)
     r.plot(tmp_path / "fit.png")
     assert (tmp_path / "fit.png").stat().st_size > 10_000
     assert r.simulate().shape == (len(sd1), 2) and r.simulate().dtype == np.float64
@@ -90,19 +99,38 @@ def test_result_object(sd1, tmp_path):
 
 def test_polish_improves_and_keeps_bounds(sd1, sd1_true):
     prob = make_problem(sd1)
-    x0 = sd1_true.to_array() * jnp.array([1.01, 0.99, 1.0, 1.02, 0.97, 1.1, 0.9])
-    r = polish_jit(x0, prob, TABLE4)
+    truth = jnp.asarray([sd1_true[n] for n in NAMES])
+    x0 = truth * jnp.array([1.01, 0.99, 1.0, 1.02, 0.97, 1.1, 0.9])
+    r = polish_jit(x0, prob, BOX4)
     assert float(r.of_before) > 1e-6 and float(r.of_after) < 1e-20
-    np.testing.assert_allclose(np.asarray(r.x), np.asarray(sd1_true.to_array()), rtol=1e-8)
+    np.testing.assert_allclose(np.asarray(r.x), np.asarray(truth), rtol=1e-8)
     # A start on the upper bound of Tlc stays within the bounds.
-    x_edge = sd1_true.to_array().at[6].set(1e-6)
-    r2 = polish_jit(x_edge, prob, TABLE4)
-    assert TABLE4.contains(np.asarray(r2.x)) and float(r2.of_after) <= float(r2.of_before)
+    x_edge = truth.at[6].set(1e-6)
+    r2 = polish_jit(x_edge, prob, BOX4)
+    assert BOX4.contains(np.asarray(r2.x)) and float(r2.of_after) <= float(r2.of_before)
+
+
+def test_levenberg_marquardt_reaches_scipys_least_squares_optimum():
+    """dcjax's LM against scipy's (MINPACK-style trust region, an independent implementation): the
+    Rosenbrock residuals (zero-residual optimum at (1, 1)) and a noisy exponential decay (a
+    non-zero residual optimum)."""
+    from scipy.optimize import least_squares
+
+    y, cost, _, converged = levenberg_marquardt(lambda y: jnp.stack([10.0 * (y[1] - y[0] ** 2), 1.0 - y[0]]), jnp.array([-1.2, 1.0]))
+    assert bool(converged) and float(cost) < 1e-25
+    np.testing.assert_allclose(np.asarray(y), [1.0, 1.0], rtol=1e-10)
+    t = np.linspace(0.0, 4.0, 40)
+    data = 2.5 * np.exp(-1.3 * t) + 0.5 + 0.01 * np.random.default_rng(0).standard_normal(40)
+    y, cost, _, converged = levenberg_marquardt(lambda p: p[0] * jnp.exp(-p[1] * t) + p[2] - data, jnp.array([1.0, 1.0, 0.0]))
+    want = least_squares(lambda p: p[0] * np.exp(-p[1] * t) + p[2] - data, [1.0, 1.0, 0.0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    assert bool(converged)
+    np.testing.assert_allclose(np.asarray(y), want.x, rtol=1e-8)
+    assert float(cost) == pytest.approx(2 * want.cost, rel=1e-12)  # scipy's cost is half the sum of squares
 
 
 @pytest.mark.slow
-def test_identify_polish_flag(sd1):
-    r = identify(sd1, method="ga", runs=2, budget=1400, seed=0, polish=True)
+def test_polish_flag(sd1):
+    r = fit(sd1, method="ga", runs=2, budget=1400, seed=0, polish=True)
     assert np.all(np.asarray(r.polish["of_after"]) <= np.asarray(r.polish["of_before"]))
     np.testing.assert_array_equal(r.run_of, r.polish["of_after"])
 
@@ -113,15 +141,14 @@ def test_identify_polish_flag(sd1):
         (dict(runs=0), "runs"),
         (dict(budget=10), "budget"),
         (dict(method="nope"), "unknown method"),
-        (dict(bounds="table9"), "unknown bounds"),
-        (dict(bounds=(np.ones(7), np.zeros(7))), "lower bound above"),
+        (dict(params="table9"), "unknown bounds"),
         (dict(integrator="rk2"), "integrator"),
-        (dict(nd=0), "nd"),
+        (dict(observation={"loss": "l1"}), "observation must be a dcjax.Observation"),
     ],
 )
-def test_identify_bad_input(sd1, kw, match):
+def test_fit_bad_input(sd1, kw, match):
     with pytest.raises(ValueError, match=match):
-        identify(sd1, **kw)
+        fit(sd1, **kw)
 
 
 def test_cli_writes_result(tmp_path, capsys):
@@ -130,7 +157,7 @@ def test_cli_writes_result(tmp_path, capsys):
     d = json.loads((tmp_path / "result.json").read_text())
     for key in ("params", "of", "runs", "stats", "settings", "timing"):
         assert key in d
-    assert set(d["params"]) == set(PARAM_NAMES)
+    assert set(d["params"]) == set(NAMES)
     assert all(set(r) >= {"of", "params"} for r in d["runs"])
     assert set(d["timing"]) >= {"compile_s", "run_s"}
     assert (tmp_path / "fit.png").is_file()
@@ -165,20 +192,20 @@ def test_cli_module_entry_bad_file(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs Linux /proc")
-def test_repeated_identify_does_not_accumulate_memory_mappings(sd1, monkeypatch):
-    """Each compiled executable holds memory mappings; a long sweep of `identify` calls must not
+def test_repeated_fits_do_not_accumulate_memory_mappings(sd1, monkeypatch):
+    """Each compiled executable holds memory mappings; a long sweep of fits must not
     keep them all (the kernel limit, vm.max_map_count, ended a full reproduction once)."""
 
     def maps():
         return sum(1 for _ in open("/proc/self/maps"))
 
-    cache = sys.modules["dcjax.fitting.engine"].EXECUTABLES
+    cache = sys.modules["dcjax.fitting.runs"].EXECUTABLES
     cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
     monkeypatch.setattr(cache, "size", 2)  # fills after two calls: four more show whether evicted ones are freed
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
     counts = []
     for k in range(cache.size + 4):  # distinct executables: the cache fills, then evicts
-        identify(sd1, method=methods[k % 5], runs=1, budget=140, seed=k, pop_size=70 - k // 5)
+        fit(sd1, method=make_strategy(methods[k % 5], pop_size=70 - k // 5), runs=1, budget=140, seed=k)
         counts.append(maps())
     full = cache.size - 1
     assert counts[-1] - counts[full] < 600, counts  # were the executables kept: ~450 more per call
@@ -189,14 +216,14 @@ def test_progress_reports_and_changes_nothing(sd1, tmp_path, capsys):
     """Chunked runs (progress) give the same bits as one compiled run, memory or not; the CLI's
     --progress draws a bar on stderr."""
     for memory in (None, "stma"):
-        kw = dict(runs=3, budget=2800, seed=4, memory=memory)
+        kw = dict(runs=3, budget=2800, seed=4, memory=None if memory is None else dcjax.MEMORIES[memory])
         seen = []
-        a, b = identify(sd1, **kw), identify(sd1, progress=seen.append, **kw)
+        a, b = fit(sd1, **kw), fit(sd1, progress=seen.append, **kw)
         for f in ("run_of", "run_params", "fes", "iterations"):
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         np.testing.assert_array_equal(a.history, b.history)
         assert seen == sorted(seen) and seen[-1] == 1.0 and (memory is not None or len(seen) >= 10)
-        assert not sys.modules["dcjax.fitting.engine"]._METERS  # a meter lives for its call only
+        assert not sys.modules["dcjax.fitting.runs"]._METERS  # a meter lives for its call only
     assert main(["fit", "SD1", "--runs", "1", "--budget", "1400", "--progress", "--out", str(tmp_path)]) == 0
     assert "iterations (all runs)" in capsys.readouterr().err
 
@@ -205,9 +232,9 @@ def test_a_sweep_over_f_and_cr_reuses_one_executable(sd1):
     """DE's F and CR are arguments of the compiled runs (`Strategy.traced`), not constants: another
     F or CR runs the same executable, and gives other runs; the same F gives the same bits."""
     kw = dict(runs=2, budget=2100, seed=1)
-    a = identify(sd1, strategy_options={"f": 0.5, "cr": 0.9}, **kw)
-    b = identify(sd1, strategy_options={"f": 0.7, "cr": 0.6}, **kw)
-    c = identify(sd1, method=DERand1Exp(f=0.5, cr=0.9), **kw)
+    a = fit(sd1, method=make_strategy("de-rand-1-exp", f=0.5, cr=0.9), **kw)
+    b = fit(sd1, method=make_strategy("de-rand-1-exp", f=0.7, cr=0.6), **kw)
+    c = fit(sd1, method=DERand1Exp(f=0.5, cr=0.9), **kw)
     assert b.timing["reused_executable"] and c.timing["reused_executable"]
     assert not np.array_equal(a.run_params, b.run_params)
     np.testing.assert_array_equal(a.run_params, c.run_params)

@@ -9,13 +9,20 @@ import pytest
 
 import dcjax
 from dcjax import Recording, datasets, make_problem, objective, simulate
-from dcjax.compat import TABLE4, TABLE8, identify
 from dcjax.simulation.kernel import objective_kernel_jit, simulate_kernel_jit
+
+
+def _preset(name):
+    p = dcjax.DC().parameters(name)
+    return dcjax.Bounds(p.lower, p.upper, dcjax.DC.names)
+
+
+BOX4, BOX8 = _preset("table4"), _preset("table8")
 
 
 def _population(bounds, n=12, seed=0, truth=None):
     x = bounds.to_physical(jax.random.uniform(jax.random.PRNGKey(seed), (n, 7)))
-    return x if truth is None else x.at[0].set(jnp.asarray([truth[k] for k in dcjax.PARAM_NAMES]))
+    return x if truth is None else x.at[0].set(jnp.asarray([truth[k] for k in dcjax.DC.names]))
 
 
 def _agree(a, b):
@@ -26,10 +33,10 @@ def _agree(a, b):
 
 
 CASES = [
-    ("SD1", dict(), TABLE4),
-    ("SD3", dict(integrator="euler", nd=3, weights=(0.3, 0.7)), TABLE4),
-    ("MD1", dict(nd=5), TABLE8),  # current limit
-    ("MD4", dict(integrator="euler"), TABLE8),
+    ("SD1", dict(), BOX4),
+    ("SD3", dict(integrator=dcjax.Euler(substeps=3), weights=(0.3, 0.7)), BOX4),
+    ("MD1", dict(integrator=dcjax.RK4(substeps=5)), BOX8),  # current limit
+    ("MD4", dict(integrator=dcjax.Euler()), BOX8),
 ]
 
 
@@ -49,7 +56,7 @@ def test_kernel_non_uniform_steps_and_a_custom_model():
     t = rec.t.copy()
     t[1:] += np.linspace(0, 2e-4, len(t) - 1) ** 2 * 1e3  # uneven sampling, still increasing
     rec = Recording(t=t, u_a=rec.u_a, i_a=rec.i_a, omega=rec.omega)
-    prob = make_problem(rec, model=SeriesWound(), nd=2)
+    prob = make_problem(rec, dcjax.RK4(substeps=2), model=SeriesWound())
     x = jnp.stack([jnp.asarray([v * (1 + 0.1 * k) for v in SERIES_TRUE.values()]) for k in range(9)])
     _agree(objective_kernel_jit(x, prob, interpret=True, block=8), objective(x, prob))
     _agree(simulate_kernel_jit(x, prob, interpret=True, block=8), simulate(x, prob))
@@ -57,9 +64,9 @@ def test_kernel_non_uniform_steps_and_a_custom_model():
 
 @pytest.mark.slow
 def test_identify_through_the_kernel_equals_the_scan(sd1, monkeypatch):
-    a = identify(sd1, runs=2, budget=350, seed=3)
+    a = dcjax.fit(sd1, params="table4", runs=2, budget=350, seed=3)
     monkeypatch.setenv("DCJAX_KERNEL", "interpret")
-    b = identify(sd1, runs=2, budget=350, seed=3)
+    b = dcjax.fit(sd1, params="table4", runs=2, budget=350, seed=3)
     assert not b.timing["reused_executable"]  # the kernel mode is part of the executable's key
     np.testing.assert_allclose(b.run_of, a.run_of, rtol=1e-12)
     np.testing.assert_allclose(b.run_params, a.run_params, rtol=1e-12)

@@ -103,7 +103,7 @@ def test_daq_sd1_fits_like_sd1_and_the_commands_work(tmp_path, capsys):
     assert main(["fit", "SD1", "--runs", "2", "--out", str(tmp_path / "sd1")]) == 0
     a = json.loads((tmp_path / "daq" / "result.json").read_text())
     b = json.loads((tmp_path / "sd1" / "result.json").read_text())
-    for n in dcjax.PARAM_NAMES:
+    for n in dcjax.DC.names:
         assert abs(a["params"][n] - b["params"][n]) <= 1e-9 * abs(b["params"][n]), n
     assert a["settings"]["data"][0]["sha256"] and a["dcjax_version"]
     capsys.readouterr()
@@ -151,7 +151,7 @@ def test_saving_a_plot_keeps_the_backend(sd1, tmp_path):
     import matplotlib
 
     before = matplotlib.get_backend()
-    r = dcjax.identify(sd1, runs=1, budget=140)
+    r = dcjax.fit(sd1, params="table4", runs=1, budget=140)
     r.plot(tmp_path / "fit.png")
     assert matplotlib.get_backend() == before and (tmp_path / "fit.png").stat().st_size > 10_000
     from matplotlib.figure import Figure

@@ -6,8 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import dcjax
 from dcjax import make_problem, objective
-from dcjax.compat import TABLE4, TABLE8, Params, identify
 from dcjax.models.dc import TABLE29, load_torque_precision
 from dcjax.models.precision import unit_precision
 from dcjax.strategies import make_strategy, run
@@ -15,8 +15,9 @@ from dcjax.strategies.compact import bucket_sizes, compacted
 from dcjax.strategies.memory import LTMA, MEMORIES, Records
 
 MEMORY_KINDS = tuple(MEMORIES)
+BOX4, BOX8 = (dcjax.Bounds(p.lower, p.upper, dcjax.DC.names) for p in (dcjax.DC().parameters(k) for k in ("table4", "table8")))
 
-PREC = jnp.asarray(unit_precision(TABLE29, TABLE4))
+PREC = jnp.asarray(unit_precision(TABLE29, BOX4))
 
 
 def _mem(kind, chunk):
@@ -28,7 +29,7 @@ def _mem(kind, chunk):
 @pytest.fixture(scope="module")
 def sd1_fn(sd1):
     prob = make_problem(sd1)
-    return lambda z: objective(Params.from_array(TABLE4.to_physical(z)), prob)
+    return lambda z: objective(BOX4.to_physical(z), prob)
 
 
 def _run(fn, memory, precision=PREC, budget=2800, method="de-rand-1-exp", seed=0, **kw):
@@ -201,8 +202,8 @@ def test_memory_keeps_the_iteration_count_and_saves_fes(sd1_fn):
     assert int(longer.iterations) > 199 and int(longer.fes) <= 14_000
 
 
-def test_identify_with_memory(sd1):
-    r = identify(sd1, runs=3, budget=14_000, memory="stma", generations=150, seed=2)
+def test_fit_with_memory(sd1):
+    r = dcjax.fit(sd1, "dc", "table4", make_strategy("de-rand-1-exp", generations=150), runs=3, budget=14_000, memory=dcjax.STMA(), seed=2)
     assert r.dups is not None and np.all(r.fes <= 14_000) and np.all(r.iterations == 150)
     np.testing.assert_array_equal(r.fes + r.dups, 70 * 151)
     assert 0 < r.duplicates["percent"] < 100
@@ -213,19 +214,21 @@ def test_identify_with_memory(sd1):
 
 def test_memory_input_errors(sd1):
     with pytest.raises(ValueError, match="memory"):
-        identify(sd1, runs=1, budget=700, memory="ltma")
+        dcjax.fit(sd1, params="table4", runs=1, budget=700, memory="ltma")  # pyright: ignore[reportArgumentType]
+    params = dcjax.DC().parameters("table4")
+    params["Ra"].set(precision=-1.0)
     with pytest.raises(ValueError, match="precision"):
-        identify(sd1, runs=1, budget=700, memory="stma", precision=[1e-3] * 6)
+        dcjax.fit(sd1, params=params, runs=1, budget=700, memory=dcjax.STMA())
     with pytest.raises(ValueError, match="generations"):
-        identify(sd1, runs=1, budget=700, generations=0)
+        dcjax.fit(sd1, params="table4", method=make_strategy("de-rand-1-exp", generations=0), runs=1, budget=700)
     with pytest.raises(ValueError, match="positive"):
         load_torque_precision(0.0, 209.0, 1e-3, 1e-3, 1e-3, 1e-4)
 
 
 def test_table29_rule_and_unit_precision():
     np.testing.assert_allclose(load_torque_precision(1e-3, 209.0, 1e-3, 1e-3, 1e-3, 1e-4)[5:], [4.78e-6, 2.29e-8], rtol=1e-2)
-    u = unit_precision(None, TABLE8)
-    np.testing.assert_allclose(u * np.asarray(TABLE8.upper - TABLE8.lower), TABLE29)
+    u = unit_precision(None, BOX8)
+    np.testing.assert_allclose(u * np.asarray(BOX8.upper - BOX8.lower), TABLE29)
 
 
 @pytest.mark.slow

@@ -14,7 +14,6 @@ import pytest
 import dcjax
 from dcjax import DC, DCCoulomb, Model, Recording, datasets, get_model, make_problem, objective
 from dcjax.cli import main
-from dcjax.compat import identify
 
 SD1 = datasets.true_params("SD1")
 
@@ -80,9 +79,21 @@ def series_recording(nd=1):
     return Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], name="series")
 
 
+def _params(model=None, preset=None, fixed=None, bounds=None, x0=None):
+    """A model's `Parameters` (its default preset) with ranges, start values and fixed values set."""
+    params = dcjax.get_model(model).parameters(preset)
+    for n, (lo, hi) in (bounds or {}).items():
+        params[n].set(min=lo, max=hi)
+    for n, v in (x0 or {}).items():
+        params[n].set(value=v)
+    for n, v in (fixed or {}).items():
+        params[n].set(value=v, vary=False)
+    return params
+
+
 def test_series_model_simulates_like_an_independent_numpy_rk4():
     rec = series_recording(nd=3)
-    prob = make_problem(rec, model=SeriesWound(), nd=3)
+    prob = make_problem(rec, dcjax.RK4(substeps=3), model=SeriesWound())
     sim = np.asarray(dcjax.simulate(SERIES_TRUE, prob))
     np.testing.assert_allclose(sim[:, 0], rec.i_a, rtol=1e-12, atol=1e-10)
     np.testing.assert_allclose(sim[:, 1], rec.omega, rtol=1e-12, atol=1e-9)
@@ -92,7 +103,7 @@ def test_series_model_simulates_like_an_independent_numpy_rk4():
 @pytest.mark.slow
 def test_series_model_end_to_end_de_polish_uncertainty():
     rec = series_recording()
-    r = identify(rec, model=SeriesWound(), runs=2, budget=42_000, seed=0, polish=True)
+    r = dcjax.fit(rec, SeriesWound(), _params(SeriesWound()), runs=2, budget=42_000, seed=0, polish=True)
     assert r.names == SeriesWound.names and r.of < 1e-20, r.run_of
     for n, v in SERIES_TRUE.items():
         assert abs(r.params[n] - v) <= 1e-6 * v, (n, r.params[n], v)
@@ -125,9 +136,9 @@ def test_coulomb_model_recovers_friction_on_a_reversing_drive_and_dc_does_not():
     prob = make_problem(rec, model="dc-coulomb")
     x = jnp.asarray([SD1[n] for n in DC.names])
     assert float(objective(x, prob)) < 1e-28  # the same model as the NumPy reference
-    kw = dict(runs=2, budget=70_000, seed=3, bounds={"Tla": (0.0, 0.1), "Tlc": (0.0, 1e-6)})
-    coul = identify(rec, model="dc-coulomb", **kw)
-    plain = identify(rec, model="dc", **kw)
+    kw = dict(runs=2, budget=70_000, seed=3)
+    coul = dcjax.fit(rec, "dc-coulomb", _params("dc-coulomb", bounds={"Tla": (0.0, 0.1), "Tlc": (0.0, 1e-6)}), **kw)
+    plain = dcjax.fit(rec, "dc", _params("dc", bounds={"Tla": (0.0, 0.1), "Tlc": (0.0, 1e-6)}), **kw)
     assert abs(coul.params["Tla"] - SD1["Tla"]) <= 1e-4 * SD1["Tla"], coul.params
     assert plain.of > 1e6 * coul.of and plain.of > 1e-12, (plain.of, coul.of)
 
@@ -144,7 +155,7 @@ def test_coulomb_sign_is_smooth_and_odd():
 
 # -- parameters by name ---------------------------------------------------------------------------------
 def test_fixed_parameters_shrink_the_search_and_are_reported(sd1):
-    r = identify(sd1, runs=2, budget=21_000, seed=0, fixed={"Ra": 42.5, "Tlc": SD1["Tlc"]})
+    r = dcjax.fit(sd1, params=_params(fixed={"Ra": 42.5, "Tlc": SD1["Tlc"]}), runs=2, budget=21_000, seed=0)
     assert r.params["Ra"] == 42.5 and r.params["Tlc"] == SD1["Tlc"] and np.all(r.run_params[:, 0] == 42.5)
     assert r.fixed == {"Ra": 42.5, "Tlc": SD1["Tlc"]}
     d = r.to_dict()
@@ -164,19 +175,20 @@ def test_search_dimension_is_the_free_count(sd1):
             seen["dim"] = dim
             return super().init(key, fn, budget, dim, x0)
 
-    identify(sd1, method=Spy(), runs=1, budget=140, fixed={"Ra": 42.5, "Tlc": 0.0})
+    dcjax.fit(sd1, params=_params(fixed={"Ra": 42.5, "Tlc": 0.0}), method=Spy(), runs=1, budget=140)
     assert seen["dim"] == 5
 
 
 def test_bad_names_list_the_models_parameters(sd1):
+    extra = dcjax.Parameters([*_params().values(), dcjax.Parameter("Rb", value=1.0, vary=False)])
+    with pytest.raises(ValueError, match="unknown parameter.* Rb for model dc"):
+        dcjax.fit(sd1, params=extra, runs=1, budget=70)
     with pytest.raises(ValueError, match="unknown fixed parameter 'Rb' for model dc; its parameters are Ra, La"):
-        identify(sd1, fixed={"Rb": 1.0}, runs=1, budget=70)
-    with pytest.raises(ValueError, match="unknown parameter 'Jx'"):
-        identify(sd1, bounds={"Jx": (0, 1)}, runs=1, budget=70)
-    with pytest.raises(ValueError, match="unknown start value 'X'"):
-        identify(sd1, x0={"X": 1.0}, runs=1, budget=70)
+        DC().check_names({"Rb": 1.0}, "fixed parameter")
+    with pytest.raises(KeyError, match="Jx"):
+        _params(bounds={"Jx": (0, 1)})
     with pytest.raises(ValueError, match="outside its bounds"):
-        identify(sd1, x0={"Ra": 1e3}, runs=1, budget=70)
+        dcjax.fit(sd1, params=_params(x0={"Ra": 1e3}), runs=1, budget=70)
     with pytest.raises(ValueError, match="unknown model 'shunt'"):
         get_model("shunt")
     with pytest.raises(ValueError, match="cannot import model"):
@@ -185,12 +197,12 @@ def test_bad_names_list_the_models_parameters(sd1):
 
 def test_start_values_seed_the_population(sd1):
     truth = {n: SD1[n] for n in DC.names}
-    r = identify(sd1, runs=1, budget=70, x0=truth)  # one population: the seeded member is evaluated
+    r = dcjax.fit(sd1, params=_params(x0=truth), runs=1, budget=70)  # one population: the seeded member is evaluated
     assert r.of < 1e-25
 
 
 def test_per_name_bounds_override_the_preset(sd1):
-    r = identify(sd1, runs=1, budget=140, bounds={"Ra": (40.0, 45.0)})
+    r = dcjax.fit(sd1, params=_params(bounds={"Ra": (40.0, 45.0)}), runs=1, budget=140)
     assert r.settings["bounds"]["lower"][0] == 40.0 and r.settings["bounds"]["upper"][1] == 1.0
     assert 40.0 <= r.params["Ra"] <= 45.0
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import dcjax
-from dcjax import cli, datasets
+from dcjax import FailedFit, cli, datasets, fit_each
 from dcjax.analysis.estimate import auto_bounds, initial_estimate
-from dcjax.fitting.each import FailedFit, fit_each, robust_outliers, summary_rows
+from dcjax.fitting.summary import robust_outliers, summary_rows
 from dcjax.models import get_model, model_spec
 
 SPEED_SCALE = 9.68 / 0.03  # 322.67: wheel speed in m/s behind a 9.68:1 gear on a 30 mm wheel
@@ -146,7 +146,7 @@ def test_bounds_auto_holds_the_preset_and_the_estimate(sd1):
 
 
 def test_bounds_auto_fits_sd1_exactly(sd1):
-    res = dcjax.identify(sd1, bounds="auto", runs=4, seed=3)
+    res = dcjax.fit(sd1, params="auto", runs=4, seed=3)
     assert np.all(res.run_of <= 1e-15)
     truth = datasets.true_params("SD1")
     for n, v in truth.items():
@@ -205,21 +205,18 @@ def test_cli_each_writes_one_row_per_file(tmp_path, capsys):
 # -- the 0.2 fit API ------------------------------------------------------------------------
 
 
-def test_fit_with_parameters_equals_identify(sd1):
+def test_fit_with_parameters_and_lmfits_statistics(sd1):
     params = dcjax.DC().parameters("table4")
     params["Tlc"].set(value=8.55e-8, vary=False)
     params["Ra"].set(min=10.0, max=60.0, value=40.0)
     a = dcjax.fit(sd1, params=params, integrator=dcjax.RK4(substeps=2), runs=2, budget=2800, seed=5)
-    b = dcjax.identify(sd1, integrator="rk4", nd=2, bounds={"Ra": (10.0, 60.0)}, fixed={"Tlc": 8.55e-8}, x0={"Ra": 40.0},
-                       runs=2, budget=2800, seed=5)  # fmt: skip
-    np.testing.assert_array_equal(a.run_of, b.run_of)
-    assert a.params == b.params and a.fixed == {"Tlc": 8.55e-8}
-    assert a.nvarys == 6 and a.ndata == 2 * len(sd1) and a.nfev == int(b.fes.sum())
+    assert a.fixed == {"Tlc": 8.55e-8}
+    assert a.nvarys == 6 and a.ndata == 2 * len(sd1) and a.nfev == int(a.fes.sum()) == 2 * 2800
     n = a.ndata
     assert a.chisqr == a.of and a.redchi == pytest.approx(a.of / (n - 6))
     assert a.aic == pytest.approx(n * np.log(a.of / n) + 12) and a.bic == pytest.approx(n * np.log(a.of / n) + np.log(n) * 6)
     assert a.success and "chi-square" in a.report()
-    p = a.parameters
+    p = a.params
     assert p["Tlc"].vary is False and p["Ra"].min == 10.0 and p["Ra"].value == a.params["Ra"]
     d = json.loads(a.to_json())
     assert d["params"] == a.params and d["statistics"]["nvarys"] == 6

@@ -9,10 +9,22 @@ import scipy.linalg
 
 import dcjax
 from dcjax import RK4, Recording, make_problem, objective, simulate
-from dcjax.compat import Params
 from dcjax.io.numpy_simulator import simulate_numpy
 from dcjax.models import DC
 from dcjax.models.dc import Coefficients, derivatives, vector_field
+
+
+def _problem(rec, integrator="rk4", nd=1, start=None, limit=None):
+    """`make_problem` with the integrator by name, a start state (i, w) and a current limit."""
+    rec = rec if limit is None else rec.replace(limit=limit)
+    initial = None if start is None else {"i_a": start[0], "omega": start[1]}
+    return make_problem(rec, dcjax.INTEGRATORS[integrator](substeps=nd), initial=initial)
+
+
+def _table4():
+    p = DC().parameters("table4")
+    return dcjax.Bounds(p.lower, p.upper)
+
 
 SD1 = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
 
@@ -24,7 +36,7 @@ def _varying_voltage_recording(n=41, dt=1e-3):
     return Recording(t=t, u_a=u, i_a=np.ones(n), omega=np.ones(n))
 
 
-def _diffrax_solution(p: Params, rec: Recording):
+def _diffrax_solution(p: dict, rec: Recording):
     """Tsit5 at tight tolerance on the same ODE with the same piecewise-linear voltage."""
     t = jnp.asarray(rec.t)
     u = jnp.asarray(rec.u_a)
@@ -50,20 +62,20 @@ def test_float64(sd1, sd1_true):
     prob = make_problem(sd1)
     assert simulate(sd1_true, prob).dtype == jnp.float64
     assert objective(sd1_true, prob).dtype == jnp.float64
-    assert Params.from_array(np.ones(7, np.float32)).Ra.dtype == jnp.float64
+    assert DC().as_array(np.ones(7, np.float32)).dtype == jnp.float64
 
 
 @pytest.mark.parametrize("integrator,order", [("euler", 1.0), ("rk4", 4.0)])
 def test_order_of_convergence(integrator, order):
     """Log-log slope of the error against the sub-step (diffrax's test_ode_order style)."""
     rec = _varying_voltage_recording()
-    p = Params.from_dict(SD1)
+    p = dict(SD1)
     exact = _diffrax_solution(p, rec)
     scale = np.max(np.abs(exact), axis=0)
     nds = [4, 8, 16, 32] if integrator == "rk4" else [16, 32, 64, 128]
     errors = []
     for nd in nds:
-        prob = make_problem(rec, integrator=integrator, nd=nd, i0=0.0, w0=0.0)
+        prob = _problem(rec, integrator, nd, start=(0.0, 0.0))
         traj = np.asarray(simulate(p, prob))
         errors.append(np.max(np.abs(traj - exact) / scale))
     slope = np.polyfit(np.log(1.0 / np.asarray(nds)), np.log(errors), 1)[0]
@@ -78,12 +90,12 @@ def test_linear_case_matches_matrix_exponential(sd1):
     b = np.array([1.0 / p["La"], 0.0])
     u = 220.0
     exact = np.stack([np.linalg.solve(A, (scipy.linalg.expm(A * t) - np.eye(2)) @ b * u) for t in sd1.t])
-    prob = make_problem(sd1, nd=8)
-    traj = np.asarray(simulate(Params.from_dict(p), prob))
+    prob = _problem(sd1, nd=8)
+    traj = np.asarray(simulate(dict(p), prob))
     rel = np.max(np.abs(traj - exact), axis=0) / np.max(np.abs(exact), axis=0)
     assert np.all(rel < 1e-10), rel
     # Euler is first order: clearly worse on the same grid.
-    traj_em = np.asarray(simulate(Params.from_dict(p), make_problem(sd1, integrator="euler")))
+    traj_em = np.asarray(simulate(dict(p), _problem(sd1, "euler")))
     assert np.max(np.abs(traj_em - exact)[:, 1]) / np.max(np.abs(exact[:, 1])) > 1e-4
 
 
@@ -93,8 +105,8 @@ def test_matches_numpy_reference(integrator, nd):
     rec = _varying_voltage_recording()
     x = np.array(list(SD1.values()))
     ref = simulate_numpy(x, rec.t, rec.u_a, integrator=integrator, nd=nd, i_limit=2.0)
-    prob = make_problem(rec, integrator=integrator, nd=nd, i0=0.0, w0=0.0, i_limit=2.0)
-    out = np.asarray(simulate(Params.from_array(x), prob))
+    prob = _problem(rec, integrator, nd, start=(0.0, 0.0), limit=2.0)
+    out = np.asarray(simulate(jnp.asarray(x), prob))
     np.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-12)
 
 
@@ -110,35 +122,35 @@ def test_nd1_is_the_plain_integrator(sd1, sd1_true):
         i, w = step(k, (i, w), h, sd1.u_a[n - 1], 0.5 * (sd1.u_a[n - 1] + sd1.u_a[n]), sd1.u_a[n])
         rows.append((i, w))
     plain = np.asarray(rows)
-    out = np.asarray(simulate(sd1_true, make_problem(sd1, nd=1)))
+    out = np.asarray(simulate(sd1_true, _problem(sd1)))
     np.testing.assert_allclose(out, plain, rtol=1e-14, atol=1e-13)
 
 
 @pytest.mark.parametrize("integrator", ["euler", "rk4"])
 def test_nd_approaches_fine_solution(sd1, sd1_true, integrator):
     """Constant voltage: the error at the samples against ND = 256 shrinks as ND grows."""
-    fine = np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=256)))
-    errs = [np.max(np.abs(np.asarray(simulate(sd1_true, make_problem(sd1, integrator=integrator, nd=nd))) - fine)) for nd in (1, 2, 5, 10)]
+    fine = np.asarray(simulate(sd1_true, _problem(sd1, integrator, 256)))
+    errs = [np.max(np.abs(np.asarray(simulate(sd1_true, _problem(sd1, integrator, nd))) - fine)) for nd in (1, 2, 5, 10)]
     assert all(a > b for a, b in zip(errs, errs[1:])), errs
 
 
 def test_current_limit(sd1, sd1_true):
     peak = float(np.max(np.abs(sd1.i_a)))
-    limited = np.asarray(simulate(sd1_true, make_problem(sd1, i_limit=0.5 * peak)))
+    limited = np.asarray(simulate(sd1_true, _problem(sd1, limit=0.5 * peak)))
     assert np.max(np.abs(limited[:, 0])) <= 0.5 * peak
     assert np.isclose(np.max(limited[:, 0]), 0.5 * peak)  # it binds
     free = np.asarray(simulate(sd1_true, make_problem(sd1)))
-    above = np.asarray(simulate(sd1_true, make_problem(sd1, i_limit=2.0 * peak)))
+    above = np.asarray(simulate(sd1_true, _problem(sd1, limit=2.0 * peak)))
     np.testing.assert_array_equal(free, above)
 
 
 def test_current_limit_every_substep():
     """With ND > 1 the clamp acts inside the interval too (paper Fig. 17)."""
     rec = _varying_voltage_recording()
-    p = Params.from_dict(SD1)
-    x = p.to_array()
+    p = dict(SD1)
+    x = jnp.asarray([p[n] for n in DC.names])
     for nd in (1, 4):
-        prob = make_problem(rec, nd=nd, i0=0.0, w0=0.0, i_limit=1.0)
+        prob = _problem(rec, nd=nd, start=(0.0, 0.0), limit=1.0)
         ref = simulate_numpy(np.asarray(x), rec.t, rec.u_a, nd=nd, i_limit=1.0)
         np.testing.assert_allclose(np.asarray(simulate(p, prob)), ref, rtol=1e-12, atol=1e-12)
         assert np.max(np.abs(ref[:, 0])) <= 1.0
@@ -146,17 +158,17 @@ def test_current_limit_every_substep():
 
 def test_population_vmap_loop_jit(sd1):
     prob = make_problem(sd1)
-    X = dcjax.TABLE4.to_physical(jax.random.uniform(jax.random.PRNGKey(3), (6, 7)))
-    batched = simulate(Params.from_array(X), prob)
+    X = _table4().to_physical(jax.random.uniform(jax.random.PRNGKey(3), (6, 7)))
+    batched = simulate(jnp.asarray(X), prob)
     assert batched.shape == (6, len(sd1), 2)
-    vmapped = jax.vmap(lambda x: simulate(Params.from_array(x), prob))(X)
-    looped = jnp.stack([simulate(Params.from_array(x), prob) for x in X])
-    jitted = jax.jit(lambda X: simulate(Params.from_array(X), prob))(X)
+    vmapped = jax.vmap(lambda x: simulate(jnp.asarray(x), prob))(X)
+    looped = jnp.stack([simulate(jnp.asarray(x), prob) for x in X])
+    jitted = jax.jit(lambda X: simulate(jnp.asarray(X), prob))(X)
     np.testing.assert_allclose(batched, looped, rtol=1e-13, equal_nan=True)
     np.testing.assert_allclose(vmapped, looped, rtol=1e-13, equal_nan=True)
     np.testing.assert_allclose(jitted, looped, rtol=1e-13, equal_nan=True)
-    of_b = objective(Params.from_array(X), prob)
-    of_l = jnp.stack([objective(Params.from_array(x), prob) for x in X])
+    of_b = objective(jnp.asarray(X), prob)
+    of_l = jnp.stack([objective(jnp.asarray(x), prob) for x in X])
     np.testing.assert_allclose(of_b, of_l, rtol=1e-13)
 
 
@@ -164,18 +176,18 @@ def test_objective_at_truth_and_sensitivity(sd1, sd1_true):
     prob = make_problem(sd1)
     of0 = float(objective(sd1_true, prob))
     assert of0 < 1e-25
-    x = np.asarray(sd1_true.to_array())
-    for k, name in enumerate(dcjax.PARAM_NAMES):
+    x = np.asarray(jnp.asarray([sd1_true[n] for n in DC.names]))
+    for k, name in enumerate(DC.names):
         for s in (0.99, 1.01):
             xk = x.copy()
             xk[k] *= s
-            of = float(objective(Params.from_array(xk), prob))
+            of = float(objective(jnp.asarray(xk), prob))
             assert of > 1e3 * max(of0, 1e-30) and of > 1e-16, (name, s, of)
 
 
 def test_objective_weights(sd1, sd1_true):
-    x = np.asarray(sd1_true.to_array()) * np.array([1.02, 1, 1, 1, 1, 1, 1])
-    p = Params.from_array(x)
+    x = np.asarray(jnp.asarray([sd1_true[n] for n in DC.names])) * np.array([1.02, 1, 1, 1, 1, 1, 1])
+    p = jnp.asarray(x)
     full = float(objective(p, make_problem(sd1)))
     only_i = float(objective(p, make_problem(sd1, weights=(1.0, 0.0))))
     only_w = float(objective(p, make_problem(sd1, weights=(0.0, 1.0))))
@@ -186,8 +198,8 @@ def test_objective_weights(sd1, sd1_true):
 
 def test_grad_matches_finite_differences(sd1, sd1_true):
     prob = make_problem(sd1)
-    x0 = np.asarray(sd1_true.to_array()) * np.array([1.01, 0.99, 1.01, 1.02, 0.98, 1.05, 0.95])
-    f = lambda x: objective(Params.from_array(x), prob)
+    x0 = np.asarray(jnp.asarray([sd1_true[n] for n in DC.names])) * np.array([1.01, 0.99, 1.01, 1.02, 0.98, 1.05, 0.95])
+    f = lambda x: objective(jnp.asarray(x), prob)
     g = np.asarray(jax.grad(f)(jnp.asarray(x0)))
     jac = np.asarray(jax.jacfwd(f)(jnp.asarray(x0)))
     assert np.all(np.isfinite(g))
@@ -203,15 +215,15 @@ def test_grad_matches_finite_differences(sd1, sd1_true):
 @pytest.mark.filterwarnings("error")
 @pytest.mark.parametrize("field", ["La", "J"])
 def test_degenerate_parameters_give_inf(sd1, sd1_true, field):
-    p = Params.from_dict({**sd1_true.to_dict(), field: 0.0})
+    p = dict({**sd1_true, field: 0.0})
     assert float(objective(p, make_problem(sd1))) == np.inf
-    huge = Params.from_dict({**sd1_true.to_dict(), "La": 1e-300})
+    huge = dict({**sd1_true, "La": 1e-300})
     of = objective(huge, make_problem(sd1))
     assert not np.isnan(of) and of > 0
 
 
 def test_vector_field_matches_eq_8_9():
-    p = Params.from_dict(SD1)
+    p = dict(SD1)
     k = Coefficients.from_params(p)
     a = vector_field(k, 200.0, 1.5, 120.0)
     b = derivatives(p, 200.0, 1.5, 120.0)

@@ -7,7 +7,6 @@ import pytest
 
 import dcjax
 from dcjax import make_problem, objective
-from dcjax.compat import TABLE4, Params
 from dcjax.strategies import DEBest1Bin, Evosax, State, make_strategy, run
 from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate, index_below
 from dcjax.strategies.de import binomial_crossover, exponential_crossover
@@ -38,7 +37,8 @@ def test_improves_on_convex_function(method):
 @pytest.fixture(scope="module")
 def sd1_fn(sd1):
     prob = make_problem(sd1)
-    return lambda z: objective(Params.from_array(TABLE4.to_physical(z)), prob)
+    box = dcjax.DC().parameters("table4")
+    return lambda z: objective(box.lower + z * (box.upper - box.lower), prob)
 
 
 @pytest.mark.slow

@@ -191,3 +191,18 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
         if not v > 0:
             out.append(Finding("no-follow", WARNING, f"fit % {v:.1f} <= 0: the model does not follow {c}", c))
     return out
+
+
+def recording_findings(recordings: Sequence[Recording], model: Model) -> list[Finding]:
+    """The findings of every recording of one fit, each message prefixed with its recording's
+    name in a joint fit."""
+    out = []
+    for r in recordings:
+        for f in check_recording(r, model):
+            out.append(f if len(recordings) == 1 else dataclasses.replace(f, message=f"{r.name}: {f.message}"))
+    return out
+
+
+def batch_findings(recordings: Sequence[Recording], model: Model) -> list[list[Finding]]:
+    """Per recording of a batch of independent fits: its own findings and the fleet's (`fleet_findings`)."""
+    return [check_recording(r, model) + fleet for r, fleet in zip(recordings, fleet_findings(recordings, model))]

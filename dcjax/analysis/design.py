@@ -25,7 +25,7 @@ exploit beyond the limit)."""
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import equinox as eqx
 import jax
@@ -37,7 +37,6 @@ from ..models import DiscreteModel, Model, get_model
 from ..simulation.integrators import RK4
 from ..simulation.objectives import simulate
 from ..simulation.problem import Problem, make_problem
-from .plotting import channel_label
 
 DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
 NULL_TOL = 1e-12  # an eigenvalue of the scaled information below this fraction of the largest: numerically zero, not identifiable
@@ -47,8 +46,8 @@ NULL_TOL = 1e-12  # an eigenvalue of the scaled information below this fraction 
 class Design:
     """A designed input and what it is predicted to give."""
 
-    recording: Recording  # t, the designed input, and the responses simulated at `params`
-    levels: np.ndarray  # (segments,) the input level of each hold interval
+    recording: Recording  # t, every input (designed and given), and the responses simulated at `params`
+    levels: np.ndarray  # (segments,) the level of each hold interval; (segments, D) for D designed inputs
     hold: float
     criterion: str
     value: float  # the criterion at the design (log det F for "d", the variance sum otherwise)
@@ -58,31 +57,50 @@ class Design:
     free: tuple[str, ...]
     scale: dict[str, float]  # what "relative" means per parameter (default |value|)
     unidentifiable: list[str]  # parameters in a null direction of F (the model structure hides them)
+    inputs: tuple[str, ...] = ()  # the designed inputs (default: the model's first)
+    given: dict = dataclasses.field(default_factory=dict)  # the other inputs: name -> (N,) samples or a constant
 
     def relative_stderr(self) -> dict[str, float]:
         """Standard errors over each parameter's scale (its value, or the scale given for one at 0)."""
         return {n: self.stderr[n] / self.scale[n] for n in self.free}
 
 
-def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u: np.ndarray, i_limit: float | None) -> Problem:
-    """A `Problem` on the grid `t` with the input `u` (the model's first input; others at 0) and
-    the states starting at 0; the measured channels are those simulated at `params`."""
-    chans = {c: np.zeros_like(t) for c in model.inputs}
-    chans[model.inputs[0]] = np.asarray(u, float)
+def input_channels(model: Model, t: np.ndarray, u, given: Mapping | None = None, inputs: Sequence[str] | None = None) -> dict:
+    """Every input of `model` on the grid `t`: the designed `inputs` (default the model's inputs
+    not in `given`) from `u` ((N,) for one, (N, D) for D), the others from `given` (a constant or
+    (N,) samples; an input in neither: 0)."""
+    given = dict(given or {})
+    names = tuple(inputs) if inputs is not None else tuple(c for c in model.inputs if c not in given)
+    u = np.asarray(u, float).reshape(len(t), -1)
+    if u.shape[1] != len(names):
+        raise ValueError(f"inputs: {len(names)} designed input(s) ({', '.join(names)}), got {u.shape[1]} column(s)")
+    chans = {c: np.broadcast_to(np.asarray(given.get(c, 0.0), float), t.shape).copy() for c in model.inputs}
+    chans.update({c: u[:, k] for k, c in enumerate(names)})
+    return chans
+
+
+def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u, limit: float | None, given: Mapping | None = None,
+                     inputs: Sequence[str] | None = None) -> Problem:  # fmt: skip
+    """A `Problem` on the grid `t` with the inputs of `input_channels` (default: `u` the model's
+    first input, the others 0) and the states starting at 0; the measured channels are those
+    simulated at `params`."""
+    chans = input_channels(model, t, u, given, inputs if inputs is not None or given else model.inputs[:1])
     for s in model.outputs:  # placeholders (replaced below): zero initial state, a non-zero peak for make_problem
         chans[s] = np.zeros_like(t)
         chans[s][-1] = 1.0
-    rec = Recording(t=t, channels=chans, limit=i_limit)
+    rec = Recording(t=t, channels=chans, limit=limit)
     prob = make_problem(rec, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
     x = jnp.asarray([params[n] for n in model.names])
     sim = simulate(x, prob)
     return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])
 
 
-def with_input(prob: Problem, u: jax.Array) -> Problem:
-    """The problem with its first input replaced by `u` (N,)."""
-    u_start = prob.u_start.at[:, 0].set(u[:-1])
-    u_end = prob.u_end.at[:, 0].set(u[1:])
+def with_input(prob: Problem, u: jax.Array, columns: Sequence[int] = (0,)) -> Problem:
+    """The problem with its inputs `columns` replaced by `u` ((N,) for one, (N, D) for D)."""
+    u = u.reshape(u.shape[0], -1)
+    cols = np.asarray(columns)
+    u_start = prob.u_start.at[:, cols].set(u[:-1])
+    u_end = prob.u_end.at[:, cols].set(u[1:])
     return eqx.tree_at(lambda p: (p.u_start, p.u_end), prob, (u_start, u_end))
 
 
@@ -139,7 +157,7 @@ def design_input(
     *,
     duration: float,
     dt: float,
-    u_range: tuple[float, float],
+    u_range: "tuple[float, float] | Mapping[str, tuple[float, float]]",
     hold: float | None = None,
     limit: float | None = None,
     i_limit: float | None = None,
@@ -148,27 +166,36 @@ def design_input(
     fixed: tuple[str, ...] = (),
     scale: dict[str, float] | None = None,
     baselines: Sequence[np.ndarray] = (),
+    given: Mapping[str, "float | np.ndarray"] | None = None,
     starts: int = 8,
     steps: int = 300,
     seed: int = 0,
 ) -> Design:
     """Design an input of `duration` s sampled every `dt` s, piecewise constant over `hold` s
-    (default duration / 20), inside `u_range` = (u_min, u_max), for `model` at `params` (name ->
-    value; `fixed` names are known and not designed for), under the supply's `limit`.
+    (default duration / 20), for `model` at `params` (name -> value; `fixed` names are known and
+    not designed for), under the supply's `limit`.
+
+    Every input of the model not in `given` is designed; `given` holds the others, each a constant
+    (a per-recording constant such as a motor's pole pairs) or (N,) samples on the design's grid
+    (an input kept as a baseline recording has it). `u_range`: (u_min, u_max) for every designed
+    input, or a mapping input -> (u_min, u_max) naming each.
     `scale`: what "relative" means for a parameter (default its |value|; give one for a parameter
     fitted at 0, else it is left out).
     `criterion`: "d", "a" or comma-separated parameter names (module docstring). `noise`: sigma
     per measured channel (default 1 % of the channel's peak under a full step to u_max; never
-    below 1e-12). `baselines`: inputs on the design's grid (tests one would run otherwise) that
-    the design must improve on in every parameter of the criterion (all free ones for "d" and
-    "a"): it then minimizes the largest log ratio of a relative variance to the baselines' best,
-    started from each baseline's levels (`_Criterion`). `starts` Adam runs of `steps` steps, the
-    random starts from `seed`."""
+    below 1e-12). `baselines`: the designed inputs of tests one would run otherwise ((N,) for one
+    designed input, (N, D) for D), which the design must improve on in every parameter of the
+    criterion (all free ones for "d" and "a"): it then minimizes the largest log ratio of a
+    relative variance to the baselines' best, started from each baseline's levels (`_Criterion`).
+    `starts` Adam runs of `steps` steps, the random starts from `seed`."""
     m = get_model(model)
-    n, lo, hi, per = _grid(m, params, duration, dt, u_range, hold)
+    given = _given(m, given)
+    names = tuple(c for c in m.inputs if c not in given)
+    n, lo, hi, per = _grid(m, params, duration, dt, u_range, hold, names)
     free_names, scales, weights = _free(m, params, criterion, fixed, scale)
     segments = max(1, (n - 1) // per)  # whole hold intervals; the last level also holds the final samples
     t = np.arange(n) * dt
+    given = {c: v if np.ndim(v) == 0 else _on_grid(v, n, f"given input {c}") for c, v in given.items()}
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = jnp.asarray([scales[k] for k in free_names])
@@ -177,28 +204,58 @@ def design_input(
 
         warn_deprecated("design_input(i_limit=)", "design_input(limit=)")
         limit = i_limit if limit is None else limit
-    base = template_problem(m, params, t, np.full(n, hi), limit)  # a full step: its peaks set the default noise
+    if limit is not None and m.limited_state is None:
+        raise ValueError(f"limit: model {m.name} clamps no state (it has no Model.limited_state)")
+    base = template_problem(m, params, t, np.tile(hi, (n, 1)), limit, given, names)  # a full step: its peaks set the default noise
     sigma = _noise(m, base, noise)
     crit = criterion if criterion in ("d", "a") else "names"
-    z0 = _starts(segments, starts, seed)
+    z0 = _starts(segments, len(names), starts, seed)
+    columns = tuple(m.inputs.index(c) for c in names)
     reference = None
     if len(baselines):
-        us = [_on_grid(b, n) for b in baselines]
-        logvar = [np.log(np.asarray(_variances(with_input(base, jnp.asarray(u)), x, free, sigma, sc))) for u in us]
+        us = [_on_grid(b, n, "baselines: each input", len(names)) for b in baselines]
+        logvar = [np.log(np.asarray(_variances(with_input(base, jnp.asarray(u), columns), x, free, sigma, sc))) for u in us]
         reference = jnp.asarray(np.min(logvar, axis=0))
         levels = np.array([np.clip((u[::per][:segments] - lo) / (hi - lo), 0.0, 1.0) for u in us])
         z0 = jnp.concatenate([jnp.asarray(levels), z0])[: max(starts, len(us))]
-    loss = _Criterion(base, x, free, sigma, sc, jnp.asarray(weights), reference, crit, segments, per, lo, hi)
+    loss = _Criterion(
+        base,
+        x,
+        free,
+        sigma,
+        sc,
+        jnp.asarray(weights),
+        reference,
+        crit,
+        segments,
+        per,
+        tuple(map(float, lo)),
+        tuple(map(float, hi)),
+        columns,
+    )
     zs, fs = _optimize(loss, z0, int(steps), 0.02)
     fs = np.asarray(fs)
     k = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
     u = np.asarray(loss.profile(zs[k]))
     value = -float(fs[k]) if crit == "d" and reference is None else float(fs[k])
-    return summarize(m, params, t, u, limit, free_names, sigma, criterion, value, per * dt, {k: scales[k] for k in free_names})
+    return summarize(
+        m, params, t, u, limit, free_names, sigma, criterion, value, per * dt, {k: scales[k] for k in free_names}, given, names
+    )
 
 
-def _grid(m: Model, params, duration, dt, u_range, hold) -> tuple[int, float, float, int]:
-    """Checked number of samples, input range and samples per hold interval of a design."""
+def _given(m: Model, given) -> dict:
+    """The inputs not designed, checked: known names, and at least one input left to design."""
+    given = dict(given or {})
+    bad = [c for c in given if c not in m.inputs]
+    if bad:
+        raise ValueError(f"given: unknown input(s) {bad}; model {m.name} has inputs {', '.join(m.inputs)}")
+    if m.inputs and all(c in given for c in m.inputs):
+        raise ValueError(f"given: every input of model {m.name} is given ({', '.join(m.inputs)}); leave at least one to design")
+    return given
+
+
+def _grid(m: Model, params, duration, dt, u_range, hold, names: tuple[str, ...]) -> tuple[int, np.ndarray, np.ndarray, int]:
+    """Checked number of samples, each designed input's range (lower, upper arrays) and samples per hold interval of a design."""
     m.check_names(params)
     missing = [k for k in m.names if k not in params]
     if missing:
@@ -211,9 +268,24 @@ def _grid(m: Model, params, duration, dt, u_range, hold) -> tuple[int, float, fl
     n = int(round(duration / dt)) + 1
     if n < 10:
         raise ValueError(f"duration / dt gives {n} samples; need at least 10")
-    lo, hi = (float(u_range[0]), float(u_range[1]))
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise ValueError(f"u_range must be (u_min, u_max) with u_min < u_max, got {u_range!r}")
+    if isinstance(u_range, Mapping):
+        bad = [c for c in u_range if c not in names]
+        if bad:
+            raise ValueError(f"u_range: {bad} not designed; the designed inputs are {', '.join(names)}")
+        lacking = [c for c in names if c not in u_range]
+        if lacking:
+            raise ValueError(f"u_range: no range for the designed input(s) {', '.join(lacking)} (give (u_min, u_max) for each)")
+        ranges = [u_range[c] for c in names]
+    else:
+        ranges = [u_range] * len(names)
+    lo, hi = np.zeros(len(names)), np.zeros(len(names))
+    for k, (c, r) in enumerate(zip(names, ranges)):
+        try:
+            lo[k], hi[k] = float(r[0]), float(r[1])
+        except (TypeError, ValueError, IndexError):
+            raise ValueError(f"u_range of {c} must be (u_min, u_max), got {r!r}") from None
+        if not (math.isfinite(lo[k]) and math.isfinite(hi[k]) and lo[k] < hi[k]):
+            raise ValueError(f"u_range of {c} must be (u_min, u_max) with u_min < u_max, got {r!r}")
     hold = duration / 20 if hold is None else float(hold)
     per = int(round(hold / dt))
     if per < 1 or per >= n:
@@ -240,11 +312,19 @@ def _free(m: Model, params, criterion, fixed, scale) -> tuple[tuple[str, ...], d
     return free_names, scales, np.array([1.0 if k in chosen else 0.0 for k in free_names])
 
 
-def _on_grid(u, n: int) -> np.ndarray:
+def _on_grid(u, n: int, what: str, d: int | None = None) -> np.ndarray:
+    """`u` as (n,) samples (`d` None) or (n, d) for d designed inputs, finite."""
     u = np.asarray(u, float)
-    if u.shape != (n,) or not np.all(np.isfinite(u)):
-        raise ValueError(f"baselines: each input must be {n} finite values on the design's grid, got shape {u.shape}")
-    return u
+    if d is not None and d > 1:
+        ok = u.shape == (n, d)
+        shape = f"({n}, {d})"
+    else:
+        u = u.reshape(-1) if u.ndim == 2 and u.shape[1:] == (1,) else u
+        ok = u.shape == (n,)
+        shape = f"{n}"
+    if not ok or not np.all(np.isfinite(u)):
+        raise ValueError(f"{what} must be {shape} finite values on the design's grid, got shape {u.shape}")
+    return u if d is None else u.reshape(n, -1)
 
 
 _information = eqx.filter_jit(information)
@@ -273,16 +353,19 @@ class _Criterion(eqx.Module):
     crit: str = eqx.field(static=True)
     segments: int = eqx.field(static=True)
     per: int = eqx.field(static=True)
-    lo: float = eqx.field(static=True)
-    hi: float = eqx.field(static=True)
+    lo: tuple[float, ...] = eqx.field(static=True)  # per designed input
+    hi: tuple[float, ...] = eqx.field(static=True)
+    columns: tuple[int, ...] = eqx.field(static=True, default=(0,))  # the designed inputs' columns among the model's inputs
 
     def profile(self, z: jax.Array) -> jax.Array:
+        """(N, D) inputs of the levels z (segments, D)."""
         n = self.base.y_meas.shape[0]
-        u = self.lo + (self.hi - self.lo) * jnp.clip(z, 0.0, 1.0)
-        return jnp.repeat(u, self.per, total_repeat_length=n)  # the last level repeated to the end: never a short last level
+        lo, hi = jnp.asarray(self.lo), jnp.asarray(self.hi)
+        u = lo + (hi - lo) * jnp.clip(z, 0.0, 1.0)
+        return jnp.repeat(u, self.per, axis=0, total_repeat_length=n)  # the last level repeated to the end: never a short last level
 
     def __call__(self, z: jax.Array) -> tuple[jax.Array, jax.Array]:
-        F = information(with_input(self.base, self.profile(z)), self.x, self.free, self.sigma, self.scale)
+        F = information(with_input(self.base, self.profile(z), self.columns), self.x, self.free, self.sigma, self.scale)
         if self.reference is None:
             f = criterion_value(F, self.crit, self.weights)
             return f, f
@@ -338,34 +421,41 @@ def _noise(m: Model, prob: Problem, noise) -> jax.Array:
     return jnp.asarray(out)
 
 
-def _starts(segments: int, starts: int, seed: int) -> jax.Array:
-    """Adam's starts as fractions of the range: mid-range, full on, on for 40 % then off (a
-    coast-down), a square wave, then random levels."""
-    k = np.arange(segments)
-    z = [np.full(segments, 0.5), np.ones(segments), (k < max(1, (2 * segments) // 5)).astype(float), (k % 4 < 2).astype(float)]
+def _starts(segments: int, inputs: int, starts: int, seed: int) -> jax.Array:
+    """Adam's starts as fractions of each input's range, (starts, segments, inputs): mid-range,
+    full on, on for 40 % then off (a coast-down), a square wave (a quarter period later for each
+    further input, so no two inputs start alike), then random levels."""
+    k = np.arange(segments)[:, None] + np.arange(inputs)[None, :]
+    z = [np.full((segments, inputs), 0.5), np.ones((segments, inputs)), np.tile((k[:, :1] < max(1, (2 * segments) // 5)).astype(float), (1, inputs)),
+         (k % 4 < 2).astype(float)]  # fmt: skip
     rng = np.random.default_rng(seed)
     while len(z) < max(starts, 1):
-        z.append(rng.uniform(0.0, 1.0, segments))
+        z.append(rng.uniform(0.0, 1.0, (segments, inputs)))
     return jnp.asarray(np.array(z[: max(starts, 1)]))
 
 
-def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, value, hold, scale: dict[str, float]) -> Design:
-    """The `Design` of input `u` on grid `t`: responses, information, predicted errors."""
-    prob = template_problem(m, params, t, u, i_limit)
+def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, value, hold, scale: dict[str, float], given=None,
+              inputs: Sequence[str] | None = None) -> Design:  # fmt: skip
+    """The `Design` of the designed inputs `u` ((N,) or (N, D); default the model's first input)
+    on grid `t`, the other inputs `given`: responses, information, predicted errors."""
+    given = dict(given or {})
+    names = tuple(inputs) if inputs is not None else tuple(c for c in m.inputs if c not in given) if given else m.inputs[:1]
+    chans = input_channels(m, t, u, given, names)
+    prob = template_problem(m, params, t, np.column_stack([chans[c] for c in names]), i_limit, given, names)
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = np.array([scale[k] for k in free_names])
     F = np.asarray(_information(prob, x, free, sigma, jnp.asarray(sc)))
     se = predicted_stderr(F, sc)
     sim = np.asarray(simulate(x, prob))
-    chans = {m.inputs[0]: np.asarray(u, float), **{s: sim[:, k] for k, s in enumerate(m.states)}}
-    for c in m.inputs[1:]:
-        chans[c] = np.zeros_like(t)
-    rec = Recording(t=t, channels=chans, limit=i_limit, name="design")
+    constants = {c: float(v) for c, v in given.items() if np.ndim(v) == 0}
+    rec = Recording(t=t, channels={**{c: v for c, v in chans.items() if c not in constants}, **{s: sim[:, k] for k, s in enumerate(m.states)}},
+                    limit=i_limit, name="design", constants=constants or None)  # fmt: skip
     per = max(1, int(round(hold / (t[1] - t[0]))))
+    levels = np.column_stack([chans[c] for c in names])[::per][: max(1, (len(t) - 1) // per)]
     return Design(
         recording=rec,
-        levels=np.asarray(u)[::per][: max(1, (len(u) - 1) // per)],
+        levels=levels[:, 0] if len(names) == 1 else levels,
         hold=float(hold),
         criterion=str(criterion),
         value=float(value),
@@ -375,122 +465,28 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
         free=tuple(free_names),
         scale=dict(scale),
         unidentifiable=null_parameters(F, tuple(free_names)),
+        inputs=names,
+        given=given,
     )
 
 
-def evaluate_input(design: Design, model: Model | str | None, u: np.ndarray, t: np.ndarray | None = None) -> Design:
-    """The same parameters, noise and criterion under another input `u` (on the design's grid, or
-    on `t`): predicted standard errors to compare a design with the recording's own input."""
+def evaluate_input(design: Design, model: Model | str | None, u, t: np.ndarray | None = None) -> Design:
+    """The same parameters, noise and criterion under other inputs: `u` the designed inputs ((N,)
+    or (N, D) on the design's grid, with the design's other inputs), or a mapping of every input
+    that is not a constant of the design (on the design's grid, or on `t`; the constants are
+    the design's): predicted standard errors to compare a design with a recording's own inputs."""
     m = get_model(model)
     t = design.recording.t if t is None else np.asarray(t, float)
     sigma = jnp.asarray([design.noise[c] for c in m.outputs])
-    d = summarize(
-        m,
-        design.params,
-        t,
-        np.asarray(u, float),
-        design.recording.limit,
-        design.free,
-        sigma,
-        design.criterion,
-        math.nan,
-        design.hold,
-        design.scale,
-    )
-    return d
-
-
-def noise_from_fit(result) -> dict[str, float] | None:
-    """sigma per measured channel from a fit's residuals (rms over its first recording), or None
-    where the fit left none (noise-free data: rms below 1e-9 of the channel's peak)."""
-    rec = result.recording
-    if rec is None:
-        return None
-    sim = result.simulate(rec)
-    m = result.model
-    out = {}
-    for c in m.outputs:
-        y = np.asarray(rec[c])
-        r = float(np.sqrt(np.mean((y - sim[:, m.states.index(c)]) ** 2)))
-        if not r > 1e-9 * np.max(np.abs(y)):
-            return None
-        out[c] = r
-    return out
-
-
-def scales_from_fit(result, fraction: float = 0.01) -> dict[str, float]:
-    """`scale=` for `design_input` from a fit: a parameter that ended on a bound at (about) zero
-    is scaled by `fraction` of its search range (its value says nothing of its size); the others
-    by their value."""
-    b = result.bounds
-    out = {}
-    for n in result.at_bound():
-        if n not in result.model.names:  # a local copy, an offset or delay: not the model's to design for
-            continue
-        k = result.names.index(n)
-        width = float(b.upper[k] - b.lower[k])
-        if abs(result.best_values[n]) <= 1e-9 * width:
-            out[n] = fraction * width
-    return out
-
-
-def write_design(design: Design, baselines: dict[str, Design], folder, model) -> list:
-    """`input.csv` (t and the designed input), `design.json` (criterion, levels, predicted
-    standard errors of the design and of each baseline) and `design.png`."""
-    import json
-    from pathlib import Path
-
-    m = get_model(model)
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    rec = design.recording
-    name = m.inputs[0]
-    np.savetxt(folder / "input.csv", np.column_stack([rec.t, rec[name]]), delimiter=",", header=f"t,{name}", comments="", fmt="%.10g")
-
-    def errors(d: Design):
-        return {k: {"stderr": d.stderr[k], "relative": d.relative_stderr()[k]} for k in d.free}
-
-    info = {
-        "criterion": design.criterion,
-        "value": design.value,
-        "hold_s": design.hold,
-        "duration_s": float(rec.t[-1] - rec.t[0]),
-        "dt_s": float(rec.t[1] - rec.t[0]),
-        "levels": design.levels.tolist(),
-        "i_limit": rec.limit,
-        "noise": design.noise,
-        "params": design.params,
-        "free": list(design.free),
-        "predicted": {"design": errors(design), **{k: errors(b) for k, b in baselines.items()}},
-        "not_identifiable": design.unidentifiable,
-    }
-    (folder / "design.json").write_text(json.dumps(info, indent=2) + "\n")
-    _plot_design(design, baselines, m, folder / "design.png")
-    return [folder / "input.csv", folder / "design.json", folder / "design.png"]
-
-
-def _plot_design(design: Design, baselines: dict[str, Design], m: Model, path) -> None:
-    from matplotlib.figure import Figure
-
-    rec = design.recording
-    chans = [m.inputs[0], *m.outputs]
-    fig = Figure(figsize=(11, 2.4 * (len(chans) + 1)), layout="constrained")
-    axes = fig.subplots(len(chans) + 1, 1, squeeze=False)[:, 0]
-    for ax, c in zip(axes, chans):
-        ax.plot(rec.t, rec[c], "r-", lw=1.2, label="design")
-        for label, b in baselines.items():
-            if len(b.recording) == len(rec):
-                ax.plot(b.recording.t, b.recording[c], lw=0.8, alpha=0.7, label=label)
-        ax.set(ylabel=channel_label(m, c), xlabel="t (s)")
-        ax.legend(fontsize=7)
-    ax = axes[-1]
-    k = np.arange(len(design.free))
-    width = 0.8 / (1 + len(baselines))
-    ax.bar(k, [100 * design.relative_stderr()[n] for n in design.free], width, color="tab:red", label="design")
-    for j, (label, b) in enumerate(baselines.items(), start=1):
-        ax.bar(k + j * width, [100 * b.relative_stderr()[n] for n in design.free], width, label=label)
-    ax.set_xticks(k + 0.4 - width / 2, design.free)
-    ax.set(yscale="log", ylabel="predicted rel. std. error (%)")
-    ax.legend(fontsize=7)
-    fig.suptitle(f"designed input ({design.criterion}-criterion, hold {design.hold:g} s)")
-    fig.savefig(path, dpi=90)
+    names = design.inputs or m.inputs[:1]
+    if isinstance(u, Mapping):
+        constants = {c: v for c, v in design.given.items() if np.ndim(v) == 0}
+        missing = [c for c in m.inputs if c not in u and c not in constants]
+        if missing:
+            raise ValueError(f"evaluate_input: no samples of input(s) {', '.join(missing)}")
+        given = {**constants, **{c: np.asarray(u[c], float) for c in m.inputs if c in u and c not in names}}
+        u = np.column_stack([np.asarray(u[c], float) for c in names])
+    else:
+        given = design.given
+    return summarize(m, design.params, t, u, design.recording.limit, design.free, sigma, design.criterion, math.nan, design.hold,
+                     design.scale, given, names)  # fmt: skip

@@ -50,20 +50,25 @@ def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]
 
 def _add_data_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("reading the data")
-    g.add_argument("--columns", default=None, help="channel=column pairs, e.g. t=time_ms,u_a=U,i_a=I,omega=n (names or 0-based indices)")
-    g.add_argument("--units", default=None, help="channel=unit pairs, e.g. t=ms,i_a=mA,omega=rpm (converted to SI)")
+    g.add_argument(
+        "--columns",
+        default=None,
+        help="channel=column pairs, e.g. for the DC motor t=time_ms,u_a=U,i_a=I,omega=n (names or 0-based indices)",
+    )
+    g.add_argument("--units", default=None, help="channel=unit pairs, e.g. for the DC motor t=ms,i_a=mA,omega=rpm (converted to SI)")
     g.add_argument("--delimiter", default=None, help="',', ';', 'tab' or 'whitespace' (default: detected)")
     g.add_argument("--decimal", default=".", help="decimal separator, '.' or ','")
     g.add_argument("--window", default=None, help="keep T0:T1 (seconds)")
     g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
-    g.add_argument("--trim", action="store_true", help="cut the samples before the armature is switched on")
+    g.add_argument("--trim", action="store_true", help="cut the samples before the model's first input is switched on (the DC motor: u_a)")
     g.add_argument(
         "--limit",
         "--i-limit",
         dest="limit",
         type=float,
         default=None,
-        help="the clamp on the limited state: a drive's supply current limit (A)",
+        help="the clamp on the model's limited state (the DC motor: the supply's current limit on i_a, in A); "
+        "an error for a model that clamps no state",
     )
     g.add_argument(
         "--const",
@@ -71,7 +76,9 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
         help='inputs constant in this recording instead of a column, e.g. kp=100,mass=0.49 (over the sidecar\'s "constants")',
     )
     g.add_argument(
-        "--scale", default=None, help="channel=factor pairs applied after --units, e.g. omega=322.67 (gear ratio / wheel radius)"
+        "--scale",
+        default=None,
+        help="channel=factor pairs applied after --units, e.g. for the DC motor omega=322.67 (gear ratio / wheel radius)",
     )
     g.add_argument("--dt", type=float, default=None, help="sample time (s) for a file without a time column")
     g.add_argument("--rate", type=float, default=None, help="sample rate (Hz) for a file without a time column")
@@ -87,16 +94,58 @@ def _add_experiment_options(f: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--initial", default=None,
         help="initial states, STATE=SPEC pairs: a number, measured (default where measured), derivative (default for a "
-        "derivative state) or fit (a free y0_STATE per recording), e.g. omega=fit",
+        "derivative state) or fit (a free y0_STATE per recording), e.g. for the DC motor omega=fit",
     )  # fmt: skip
     g.add_argument(
         "--local", default=None,
-        help="parameters with one value per recording of a joint fit, e.g. Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
+        help="parameters with one value per recording of a joint fit, e.g. for the DC motor Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
     )  # fmt: skip
     g.add_argument("--offset", default=None, help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "
-                   "the peak; --bound offset_CH=LO:HI), e.g. i_a")  # fmt: skip
+                   "the peak; --bound offset_CH=LO:HI), e.g. for the DC motor i_a")  # fmt: skip
     g.add_argument("--delay", default=None, help="inputs with a free delay delay_IN in seconds (range 0..10 samples; "
-                   "--bound delay_IN=LO:HI), e.g. u_a")  # fmt: skip
+                   "--bound delay_IN=LO:HI), e.g. for the DC motor u_a")  # fmt: skip
+
+
+def _add_design_parser(sub) -> None:
+    """`dcjax design`: its options."""
+    d = sub.add_parser("design", help="design the next experiment's input from a fit (optimal input design)")
+    d.add_argument("result", help="result.json of a fit")
+    d.add_argument("--duration", type=float, required=True, help="length of the test (s)")
+    d.add_argument("--dt", type=float, required=True, help="sample time (s)")
+    d.add_argument("--umin", type=float, default=None, help="lowest level of every designed input (in its unit, e.g. V)")
+    d.add_argument("--umax", type=float, default=None, help="highest level of every designed input")
+    d.add_argument("--range", default=None, help="a designed input's own range, NAME=LO:HI pairs over --umin/--umax, e.g. uq=-5:5,ud=-2:2")
+    d.add_argument("--keep", default=None, help="inputs not designed but kept as the fitted recording has them, e.g. ud "
+                   "(every other input that is not a constant is designed)")  # fmt: skip
+    d.add_argument(
+        "--const", default=None, help="inputs constant in the designed test, e.g. pp=4 (default: the fitted recording's constants)"
+    )
+    d.add_argument("--hold", type=float, default=None, help="shortest time an input level is held (s; default duration/20)")
+    d.add_argument(
+        "--limit",
+        "--i-limit",
+        dest="limit",
+        type=float,
+        default=None,
+        help="the clamp on the model's limited state (the DC motor: the supply current limit, A; default the fitted recording's)",
+    )
+    d.add_argument(
+        "--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. for the DC motor J,Tla,Tlb,Tlc"
+    )
+    d.add_argument("--noise", default=None, help="noise std. dev. per channel, e.g. for the DC motor i_a=0.05,omega=0.5 (default: the fit's residuals, "
+                   "or 1%% of each channel's peak under a full step where the fit left none)")  # fmt: skip
+    d.add_argument(
+        "--baseline",
+        action="append",
+        default=[],
+        help="CSV of an input you would run otherwise (columns t and the input, or the input alone on the design's grid); "
+        "the design must then predict smaller standard errors than every baseline in each parameter of the criterion "
+        "(repeatable)",
+    )
+    d.add_argument("--starts", type=int, default=8, help="optimizer starts")
+    d.add_argument("--steps", type=int, default=300, help="optimizer steps per start")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--out", default="design", help="output folder")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -130,11 +179,11 @@ def _parser() -> argparse.ArgumentParser:
         help="auto (ranges from an equation-error first estimate) or a preset of the model, e.g. table4, table8 "
         "(default: the sidecar's 'bounds', else auto)",
     )
-    f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. Ra=0:10,J=0:0.1")
+    f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. for the DC motor Ra=0:10,J=0:0.1")
     f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
     f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
-    f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. Ra=42.5,Tlc=0")
-    f.add_argument("--x0", default=None, help="start values seeding the initial population, e.g. Ra=40,J=2e-5")
+    f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. for the DC motor Ra=42.5,Tlc=0")
+    f.add_argument("--x0", default=None, help="start values seeding the initial population, e.g. for the DC motor Ra=40,J=2e-5")
     f.add_argument("--polish", action="store_true", help="Levenberg-Marquardt polish of every run (sse and huber losses)")
     _add_experiment_options(f)
     f.add_argument("--uncertainty", action="store_true", help="standard errors, 95%% intervals and identifiability")
@@ -167,31 +216,7 @@ def _parser() -> argparse.ArgumentParser:
     v.add_argument("data", nargs="+", help="data file(s) or embedded names")
     v.add_argument("--out", default="out", help="output folder")
     _add_data_options(v)
-    d = sub.add_parser("design", help="design the next experiment's input from a fit (optimal input design)")
-    d.add_argument("result", help="result.json of a fit")
-    d.add_argument("--duration", type=float, required=True, help="length of the test (s)")
-    d.add_argument("--dt", type=float, required=True, help="sample time (s)")
-    d.add_argument("--umin", type=float, required=True, help="lowest input level (V)")
-    d.add_argument("--umax", type=float, required=True, help="highest input level (V)")
-    d.add_argument("--hold", type=float, default=None, help="shortest time an input level is held (s; default duration/20)")
-    d.add_argument(
-        "--limit", "--i-limit", dest="limit", type=float, default=None, help="supply current limit (A; default the fitted recording's)"
-    )
-    d.add_argument("--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. J,Tla,Tlb,Tlc")
-    d.add_argument("--noise", default=None, help="noise std. dev. per channel, e.g. i_a=0.05,omega=0.5 (default: the fit's residuals, "
-                   "or 1%% of each channel's peak under a full step where the fit left none)")  # fmt: skip
-    d.add_argument(
-        "--baseline",
-        action="append",
-        default=[],
-        help="CSV of an input you would run otherwise (columns t and the input, or the input alone on the design's grid); "
-        "the design must then predict smaller standard errors than every baseline in each parameter of the criterion "
-        "(repeatable)",
-    )
-    d.add_argument("--starts", type=int, default=8, help="optimizer starts")
-    d.add_argument("--steps", type=int, default=300, help="optimizer steps per start")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--out", default="design", help="output folder")
+    _add_design_parser(sub)
     r = sub.add_parser("report", help="print the fit report of a saved result")
     r.add_argument("result", help="result.json of a fit")
     r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")

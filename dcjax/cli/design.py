@@ -2,14 +2,15 @@
 
 from pathlib import Path
 
-from .args import _named_floats
+from .args import _named_floats, _named_ranges, _names
 from .saved import _result
 
 
 def design_cmd(args) -> int:
     import numpy as np
 
-    from ..analysis.design import design_input, evaluate_input, noise_from_fit, scales_from_fit, write_design
+    from ..analysis.design import design_input, evaluate_input
+    from ..analysis.design_files import noise_from_fit, scales_from_fit, write_design
 
     res = _result(args.result)
     m = res.model
@@ -17,45 +18,103 @@ def design_cmd(args) -> int:
     if noise is None:
         noise = noise_from_fit(res)
     rec = res.recording
+    if args.limit is not None and m.limited_state is None:
+        raise ValueError(f"--limit: model {m.name} clamps no state (it has no Model.limited_state)")
     limit = args.limit if args.limit is not None else res.settings.get("i_limit") or (rec.limit if rec is not None else None)
+    limit = limit if m.limited_state is not None else None
     for name, v in (("--starts", args.starts), ("--steps", args.steps)):
         if v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v}")
     t = np.arange(int(round(args.duration / args.dt)) + 1) * args.dt
-    given = {}
+    given = _given_inputs(m, rec, t, args)
+    names = tuple(c for c in m.inputs if c not in given)
+    u_range = _ranges(names, args)
+    files = {}
     for k, f in enumerate(args.baseline):  # one entry per file, also where two files share a name
         label = f"baseline {Path(f).stem}"
-        given[label if label not in given else f"{label} ({k + 1})"] = _baseline_input(f, t, m.inputs[0] if m.inputs else "u")
+        files[label if label not in files else f"{label} ({k + 1})"] = _baseline_input(f, t, names)
     design = design_input(
-        m, res.values(0), duration=args.duration, dt=args.dt, u_range=(args.umin, args.umax), hold=args.hold, limit=limit,
+        m, res.values(0), duration=args.duration, dt=args.dt, u_range=u_range, hold=args.hold, limit=limit, given=given,
         criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,
-        steps=args.steps, seed=args.seed, baselines=list(given.values()),
+        steps=args.steps, seed=args.seed, baselines=list(files.values()),
     )  # fmt: skip
-    baselines = {f"step to {args.umax:g}": evaluate_input(design, m, np.full_like(t, args.umax))}
+    top = np.array([u_range[c][1] for c in names])
+    baselines = {"step to " + ", ".join(f"{c}={v:g}" for c, v in zip(names, top)): evaluate_input(design, m, np.tile(top, (len(t), 1)))}
     if rec is not None:
-        baselines[f"recording {rec.name}"] = evaluate_input(design, m, np.asarray(rec[m.inputs[0]]), t=np.asarray(rec.t - rec.t[0]))
-    baselines.update({k: evaluate_input(design, m, u) for k, u in given.items()})
-    files = write_design(design, baselines, Path(args.out), m)
-    print(
-        f"designed input: {design.criterion}-criterion, {args.duration:g} s at {args.dt:g} s, levels in [{args.umin:g}, {args.umax:g}], hold {design.hold:g} s"
-    )
+        own = {c: np.asarray(rec[c]) for c in m.inputs if c not in design.given or np.ndim(design.given[c]) > 0}
+        baselines[f"recording {rec.name}"] = evaluate_input(design, m, own, t=np.asarray(rec.t - rec.t[0]))
+    baselines.update({k: evaluate_input(design, m, u) for k, u in files.items()})
+    written = write_design(design, baselines, Path(args.out), m)
+    ranges = ", ".join(f"{c} in [{u_range[c][0]:g}, {u_range[c][1]:g}]" for c in names)
+    kept = [c for c in given if np.ndim(given[c]) > 0]
+    consts = {c: v for c, v in given.items() if np.ndim(v) == 0}
+    print(f"designed input: {design.criterion}-criterion, {args.duration:g} s at {args.dt:g} s, {ranges}, hold {design.hold:g} s"
+          + (f"; kept as recording {rec.name}: {', '.join(kept)}" if kept and rec is not None else "")
+          + (f"; constants {', '.join(f'{c}={v:g}' for c, v in consts.items())}" if consts else ""))  # fmt: skip
     print("noise: " + ", ".join(f"{c} {v:.3g}" for c, v in design.noise.items()))
-    print(f"{'param':>6} {'design':>12}" + "".join(f" {k:>22}" for k in baselines) + "   (predicted relative std. errors)")
+    width = max(22, *(len(k) + 1 for k in baselines))
+    print(f"{'param':>6} {'design':>12}" + "".join(f" {k:>{width}}" for k in baselines) + "   (predicted relative std. errors)")
     for n in design.free:
         print(
-            f"{n:>6} {100 * design.relative_stderr()[n]:>11.3g}%"
-            + "".join(f" {100 * b.relative_stderr()[n]:>21.3g}%" for b in baselines.values())
+            f"{n:>6} {_percent(design.relative_stderr()[n]):>12}"
+            + "".join(f" {_percent(b.relative_stderr()[n]):>{width}}" for b in baselines.values())
         )
     if design.unidentifiable:
         print(
             f"not identifiable from any input of this form: {', '.join(design.unidentifiable)} (a null direction of the information matrix: the model structure hides them)"
         )
-    for k in given:
+    for k in files:
         worse = [n for n in design.free if design.stderr[n] >= baselines[k].stderr[n] and n in _criterion_names(design)]
         if worse:
             print(f"note: the design does not beat {k} in {', '.join(worse)} (no profile of this form found that does)")
-    print("wrote " + ", ".join(str(f) for f in files))
+    print("wrote " + ", ".join(str(f) for f in written))
     return 0
+
+
+def _percent(v: float) -> str:
+    return f"{100 * v:.3g}%" if v < float("inf") else "not identifiable"
+
+
+def _given_inputs(m, rec, t, args) -> dict:
+    """The inputs that are not designed: the model's per-recording constants (the fitted
+    recording's, over them --const), and the inputs --keep names, as the fitted recording has them
+    (held from sample to sample, the last held to the end of the design)."""
+    import numpy as np
+
+    consts = {**(rec.constants if rec is not None else {}), **_named_floats(args.const, "--const")}
+    bad = [c for c in consts if c not in m.inputs]
+    if bad:
+        raise ValueError(f"--const: {', '.join(bad)} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
+    given: dict = dict(consts)
+    for c in _names(args.keep, "--keep"):
+        if c not in m.inputs:
+            raise ValueError(f"--keep: {c} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
+        if rec is None:
+            raise ValueError(f"--keep {c}: the fitted recording cannot be read again (its file moved?); design {c} too, or --const {c}=V")
+        if c in given:
+            continue
+        tr = np.asarray(rec.t - rec.t[0])
+        given[c] = np.asarray(rec[c])[np.clip(np.searchsorted(tr, t + 1e-9 * (t[1] - t[0]), side="right") - 1, 0, len(tr) - 1)]
+    if m.inputs and all(c in given for c in m.inputs):
+        raise ValueError(f"--keep/--const: every input of model {m.name} is given ({', '.join(m.inputs)}); leave one to design")
+    return given
+
+
+def _ranges(names, args) -> dict[str, tuple[float, float]]:
+    """Each designed input's range: --range NAME=LO:HI, else --umin/--umax."""
+    given = _named_ranges(args.range, "--range")
+    bad = [c for c in given if c not in names]
+    if bad:
+        raise ValueError(f"--range: {', '.join(bad)} is not designed; the designed inputs are {', '.join(names)}")
+    out = {}
+    for c in names:
+        if c in given:
+            out[c] = given[c]
+        elif args.umin is not None and args.umax is not None:
+            out[c] = (args.umin, args.umax)
+        else:
+            raise ValueError(f"no range for input {c}: give --umin and --umax, or --range {c}=LO:HI")
+    return out
 
 
 def _criterion_names(design) -> tuple[str, ...]:
@@ -63,9 +122,10 @@ def _criterion_names(design) -> tuple[str, ...]:
     return design.free if c in ("d", "a") else tuple(s.strip() for s in c.split(","))
 
 
-def _baseline_input(path: str, t, name: str):
-    """A baseline input on the design's grid `t`: a CSV with a header naming t and `name` (held
-    from each sample to the next), or one column of len(t) values."""
+def _baseline_input(path: str, t, names: tuple[str, ...]):
+    """A baseline of the designed inputs `names` on the design's grid `t`: a CSV with a header
+    naming t and each of them (held from each sample to the next), or, for one designed input,
+    one column of len(t) values. (N,) for one input, (N, D) for D."""
     import numpy as np
 
     try:
@@ -73,14 +133,17 @@ def _baseline_input(path: str, t, name: str):
     except (OSError, ValueError) as e:
         raise ValueError(f"--baseline {path}: {e}") from None
     cols = table.dtype.names or ()
-    if "t" in cols and name in cols:
-        tb, ub = np.atleast_1d(table["t"]), np.atleast_1d(table[name])
+    if "t" in cols and all(c in cols for c in names):
+        tb = np.atleast_1d(table["t"])
+        ub = np.column_stack([np.atleast_1d(table[c]) for c in names])
         if not (np.all(np.isfinite(tb)) and np.all(np.isfinite(ub)) and np.all(np.diff(tb) > 0)):
-            raise ValueError(f"--baseline {path}: t must increase and t, {name} be finite")
+            raise ValueError(f"--baseline {path}: t must increase and t, {', '.join(names)} be finite")
         if tb[-1] - tb[0] < t[-1] - 1e-9 * (t[1] - t[0]):
             print(f"note: --baseline {path} lasts {tb[-1] - tb[0]:g} s, shorter than the design's {t[-1]:g} s: its last level "
-                  f"{ub[-1]:g} is held to the end")  # fmt: skip
-        return ub[np.clip(np.searchsorted(tb - tb[0], t + 1e-9 * (t[1] - t[0]), side="right") - 1, 0, len(tb) - 1)]
-    if len(cols) == 1 and np.atleast_1d(table[cols[0]]).shape == t.shape:
+                  f"{', '.join(f'{v:g}' for v in ub[-1])} is held to the end")  # fmt: skip
+        u = ub[np.clip(np.searchsorted(tb - tb[0], t + 1e-9 * (t[1] - t[0]), side="right") - 1, 0, len(tb) - 1)]
+        return u[:, 0] if len(names) == 1 else u
+    if len(names) == 1 and len(cols) == 1 and np.atleast_1d(table[cols[0]]).shape == t.shape:
         return np.atleast_1d(table[cols[0]])
-    raise ValueError(f"--baseline {path}: needs columns t and {name}, or one column of {len(t)} values; has {', '.join(cols) or 'none'}")
+    one = f", or one column of {len(t)} values" if len(names) == 1 else ""
+    raise ValueError(f"--baseline {path}: needs columns t and {', '.join(names)}{one}; has {', '.join(cols) or 'none'}")

@@ -1,6 +1,5 @@
 """`dcjax fit`: one fit of one or several recordings (a joint fit), or `--each` file on its own."""
 
-import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -9,36 +8,37 @@ from ..io.units import parse_mapping
 from .args import _floats, _named_floats, _named_ranges, _names
 
 
-def _load(data: str, args, model):
-    from ..io import datasets
-    from ..io.loading import load_recording
+def reading_of(args):
+    """The command's reading options as one `dcjax.io.loading.Reading` (none given: the defaults)."""
+    from ..io.loading import Reading
 
-    if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
-        rec = datasets.load(data)
-        consts = _named_floats(getattr(args, "const", None), "--const")
-        if consts:
-            rec = rec.replace(constants={**rec.constants, **consts})
-        if any(getattr(args, k, None) for k in ("window", "every", "trim")):  # --columns, --units, --scale, --dt, --rate are for files
-            from ..io.loading import preprocess
-
-            return preprocess(rec, args.window, args.every, args.trim)
-        return rec
-    return load_recording(
-        data,
+    return Reading(
         columns=parse_mapping(args.columns, "--columns") or None,
         units=parse_mapping(args.units, "--units") or None,
         scale=_named_floats(args.scale, "--scale") or None,
-        constants=_named_floats(getattr(args, "const", None), "--const") or None,
         dt=args.dt,
         rate=args.rate,
         delimiter=args.delimiter,
         decimal=args.decimal,
-        model=model,
-        limit=args.limit,
-        window=args.window,
-        every=args.every,
-        trim=args.trim,
+        constants=_named_floats(getattr(args, "const", None), "--const") or None,
     )
+
+
+def _load(data: str, args, model, reading=None):
+    """`data` (a file, or an embedded data set's name) read with `reading` (default the command's
+    own options), then what the command keeps of it (--window, --every, --trim) and its --limit."""
+    from ..io import datasets
+    from ..io.loading import load_recording, preprocess
+
+    reading = reading_of(args) if reading is None else reading
+    if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
+        rec = datasets.load(data)
+        if reading.constants:
+            rec = rec.replace(constants={**rec.constants, **reading.constants})
+        if any(getattr(args, k, None) for k in ("window", "every", "trim")):  # --columns, --units, --scale, --dt, --rate are for files
+            rec = preprocess(rec, args.window, args.every, args.trim, model)
+        return rec
+    return load_recording(data, model=model, limit=args.limit, window=args.window, every=args.every, trim=args.trim, reading=reading)
 
 
 def _nd(text: str):
@@ -83,9 +83,15 @@ def _observed(name: str) -> bool:
 
 
 def _options(args, model) -> dict:
-    """The `dcjax.fit` options every file of this command shares (the parameters are per file)."""
+    """The `dcjax.fit` options every file of this command shares (the parameters are per file):
+    the strategy (with --generations), the integrator, the memory and the `Observation`, built once."""
+    import dataclasses
+
+    from ..fitting.observation import Observation
     from ..models import DiscreteModel
     from ..simulation.integrators import INTEGRATORS, AutoSubsteps
+    from ..simulation.losses import get_loss
+    from ..strategies import make_strategy
     from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
@@ -98,19 +104,18 @@ def _options(args, model) -> dict:
     else:
         step = INTEGRATORS[args.integrator or "rk4"]
         integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
-    memory = None if args.memory is None else MEMORIES[args.memory]
-    initial = parse_mapping(args.initial, "--initial")
+    if args.limit is not None and model.limited_state is None:
+        raise ValueError(f"--limit: model {model.name} clamps no state (it has no Model.limited_state); its states are "
+                         f"{', '.join(model.states)}")  # fmt: skip
     if args.local is not None and (args.each or len(args.data) < 2):
         raise ValueError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
-    return dict(method=args.method, integrator=integrator, runs=args.runs, budget=args.budget, generations=args.generations,
-                seed=args.seed, memory=memory, polish=args.polish, loss=_loss(args), initial=initial,
-                offsets=_names(args.offset, "--offset"), delays=_names(args.delay, "--delay"))  # fmt: skip
-
-
-def _loss(args):
-    from ..simulation.losses import get_loss
-
-    return get_loss(args.loss or "sse", args.normalize)
+    strategy = make_strategy(args.method)
+    if args.generations is not None:
+        strategy = dataclasses.replace(strategy, generations=args.generations)
+    observation = Observation(get_loss(args.loss or "sse", args.normalize), parse_mapping(args.initial, "--initial"),
+                              _names(args.offset, "--offset"), _names(args.delay, "--delay"))  # fmt: skip
+    return dict(method=strategy, integrator=integrator, runs=args.runs, budget=args.budget, seed=args.seed,
+                memory=None if args.memory is None else MEMORIES[args.memory], polish=args.polish, observation=observation)  # fmt: skip
 
 
 def _precision(args, model) -> dict[str, float]:
@@ -125,7 +130,7 @@ def _precision(args, model) -> dict[str, float]:
 
 def _prepared(rec, args, model):
     """The recording as the flags ask: --limit (also on an embedded data set), --weights."""
-    from ..fitting.engine import with_weights
+    from ..fitting.setup import with_weights
 
     if args.limit is not None and rec.limit != args.limit:
         rec = rec.replace(limit=args.limit)
@@ -281,16 +286,6 @@ def _save(result, out: Path, plot: bool = True) -> None:
         result.plot(out / "fit.png")
 
 
-def _check_one(recs, model) -> None:
-    """The data checks of a single fit's recordings: an error finding ends the command with its
-    one line; warnings are printed by `_print_fit`."""
-    from ..fitting.fit import recording_findings
-
-    errors = [f for f in recording_findings(recs, model) if f.severity == "error"]
-    if errors:
-        raise ValueError(f"data check {errors[0].label}: {errors[0].message}")
-
-
 def fit(args) -> int:
     from ..models import get_model
 
@@ -301,7 +296,6 @@ def fit(args) -> int:
     if args.plots is not None:
         raise ValueError("--plots goes with --each (a single fit always writes fit.png)")
     recs = [_load(d, args, model) for d in args.data]
-    _check_one(recs, model)
     result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
     out = Path(args.out)
     _save(result, out)
@@ -316,7 +310,8 @@ COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/j
 class _Split:
     """Where an --each command's wall time goes (its last line). JAX's compilation (tracing,
     lowering, XLA), wherever it happens (the first estimate's scoring, the search, the summary's
-    simulations), is counted as `compile` (`jax.monitoring`), the rest of each phase as the phase."""
+    simulations), is counted as `compile` (`jax.monitoring`), the rest of each phase as the phase:
+    the time inside a `timed` function goes to its part, the rest between two `add`s to theirs."""
 
     def __init__(self):
         self.seconds = {"load+checks": 0.0, "estimate": 0.0, "compile": 0.0, "search": 0.0, "write+plots": 0.0}
@@ -330,7 +325,7 @@ class _Split:
         import jax.monitoring
 
         jax.monitoring.register_event_duration_secs_listener(self._listen)
-        self._t, self._c = time.perf_counter(), 0.0
+        self._t, self._c, self._inside, self._inside_c = time.perf_counter(), 0.0, 0.0, 0.0
         return self
 
     def __exit__(self, *exc):
@@ -338,72 +333,63 @@ class _Split:
 
         jax.monitoring.unregister_event_duration_listener(self._listen)
 
-    def add(self, part: str) -> None:
-        """The time since the last call (or the start) goes to `part`, its compilation to `compile`."""
-        t, c = time.perf_counter(), self._compiled
-        compiled = c - self._c
+    def _book(self, part: str, seconds: float, compiled: float) -> None:
         self.seconds["compile"] += compiled
-        self.seconds[part] += max(0.0, t - self._t - compiled)
-        self._t, self._c = t, c
+        self.seconds[part] += max(0.0, seconds - compiled)
+
+    def timed(self, part: str, fn):
+        """`fn`, its time (less its compilation) booked to `part` at every call."""
+
+        def call(*a, **kw):
+            t, c = time.perf_counter(), self._compiled
+            try:
+                return fn(*a, **kw)
+            finally:
+                dt, dc = time.perf_counter() - t, self._compiled - c
+                self._book(part, dt, dc)
+                self._inside, self._inside_c = self._inside + dt, self._inside_c + dc
+
+        return call
+
+    def add(self, part: str) -> None:
+        """The time since the last call (or the start) that no `timed` call booked goes to `part`."""
+        t, c = time.perf_counter(), self._compiled
+        self._book(part, t - self._t - self._inside, c - self._c - self._inside_c)
+        self._t, self._c, self._inside, self._inside_c = t, c, 0.0, 0.0
 
     def line(self, n: int) -> str:
         return f"{n} files: " + ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items())
 
 
 def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
-    from ..fitting.each import FailedFit
+    from ..fitting.result import FailedFit
 
     status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"
     return f"[{k}/{n}] {name}: {status}, {seconds:.2f} s, {n - k} left"
 
 
 def fit_each_cmd(args, model, options) -> int:
-    """`dcjax fit --each`: one fit per file (`dcjax.fitting.fit_each`: the files of one length in
-    one compiled call); a file that fails to load, fails a data check or fails to fit is reported
-    and the others are fitted. One line per finished file on stderr (a bar on a terminal); the
-    last line splits the wall time."""
+    """`dcjax fit --each`: one fit per file (`dcjax.fit_each`: the files of one structure in one
+    compiled call); a file that fails to load, fails a data check or fails to fit is reported and
+    the others are fitted. One line per finished file on stderr (a bar on a terminal); the last
+    line splits the wall time."""
 
     with _Split() as split:
         return _fit_each_files(args, model, options, split)
 
 
 def _fit_each_files(args, model, options, split: "_Split") -> int:
-    from ..analysis.checks import ERROR, check_recording, fleet_findings
-    from ..fitting.each import FailedFit, fit_each, summary_rows, write_summary
+    from ..fitting.each import fit_each
+    from ..fitting.result import FailedFit
+    from ..fitting.summary import summary_rows, write_summary
 
     out = Path(args.out)
     plots = args.plots or "summary"
     n = len(args.data)
-    results: list = [None] * n
-    loaded = []  # (index, recording)
-    for k, data in enumerate(args.data):
-        label = Path(data).stem if Path(data).exists() else data
-        try:
-            loaded.append((k, _prepared(_load(data, args, model), args, model)))
-        except Exception as e:  # one broken file fails alone, whatever broke
-            results[k] = _failed_file(label, e, data)
-    ready = []  # (index, recording, findings)
-    for (k, rec), fleet in zip(loaded, fleet_findings([r for _, r in loaded], model)):
-        findings = check_recording(rec, model) + fleet
-        errors = [f for f in findings if f.severity == ERROR]
-        if errors:
-            results[k] = FailedFit(rec.name, f"{errors[0].label}: {errors[0].message}", args.data[k], checks=findings)
-        else:
-            ready.append((k, rec, findings))
-    split.add("load+checks")
-    prepared = []
-    for k, rec, findings in ready:
-        try:
-            prepared.append((k, rec, findings, _file_params(args, model, rec)))
-        except Exception as e:
-            results[k] = _failed_file(rec.name, e, args.data[k], findings)
-    split.add("estimate")
-    recs = [r for _, r, _, _ in prepared]  # checked above (with the folder's peaks): fit_each need not check them again
-    fitted = fit_each(recs, model, [p for *_, p in prepared], checks=False, **options) if prepared else []
+    load = split.timed("load+checks", lambda data: _prepared(_load(data, args, model), args, model))
+    params = split.timed("estimate", lambda rec: _file_params(args, model, rec))
+    results = fit_each(args.data, model, params, load=load, **options)
     split.add("search")
-    for (k, _, findings, _), res in zip(prepared, fitted):
-        res.checks = findings
-        results[k] = res if not isinstance(res, FailedFit) else dataclasses.replace(res, source=args.data[k])
     bar = _file_bar(n, args)
     names: dict[str, int] = {}
     for k, result in enumerate(results, start=1):
@@ -437,15 +423,6 @@ def _fit_each_files(args, model, options, split: "_Split") -> int:
     print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {wrote}")
     print(split.line(n))
     return 0 if ok == len(rows) else 1 if ok else 2
-
-
-def _failed_file(label: str, e: Exception, source: str, findings=None):
-    from ..analysis.checks import from_error
-    from ..fitting.each import FailedFit
-
-    named = from_error(e)
-    error = (str(e).splitlines() or [type(e).__name__])[0]
-    return FailedFit(label, error, source, checks=list(findings or []) + ([named] if named is not None else []))
 
 
 def _file_bar(n: int, args):

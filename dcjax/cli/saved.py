@@ -1,16 +1,11 @@
 """`dcjax simulate | validate | report`: what a saved result says about recordings."""
 
-import argparse
 import warnings
 from pathlib import Path
 
 import numpy as np
 
 from .fitting import _load
-
-# How a file is read (not what is kept of it): the command-line option -> its key in result.json's load record.
-READING = {"columns": "columns", "units": "units", "scale": "scale", "dt": "dt", "rate": "rate", "delimiter": "delimiter",
-           "decimal": "decimal", "const": "constants"}  # fmt: skip
 
 
 def _result(path):
@@ -20,32 +15,40 @@ def _result(path):
 
 
 def _load_like_fit(data: str, args, res):
-    """`data` read as the command's options say, or, where none of the reading options is given,
-    with the fitted file's (`result.json`: columns, units, scale, dt, rate, delimiter, decimal,
-    constants);
-    a channel whose peak differs from the fitted recording's by more than 10x gets a one-line
-    warning (a unit or scale slip)."""
+    """`data` read as the fit read its file: the reading options given (--columns, --units,
+    --scale, --dt, --rate, --delimiter, --decimal, --const) replace the fit's as a whole; none
+    given, a file in the fit's layout (its mapped columns are there) is read with the fit's
+    (`result.json`'s `load`), and one without them whose header names the model's channels by its
+    own header, with a note (the fit's unit conversions are not applied to it). A channel whose
+    peak differs from the fitted recording's by more than 10x gets a one-line warning (a unit or
+    scale slip)."""
+    from ..io.loading import Reading
+    from ..io.units import ColumnError
+    from .fitting import reading_of
+
     src = next((d for d in res.settings.get("data") or [] if isinstance(d, dict)), {})
-    given = any(getattr(args, k, None) not in (None, ".") for k in READING)
-    load = src.get("load") or {}
-    if not given and load and Path(data).exists():
-        args = argparse.Namespace(**{**vars(args), **{k: _flag(k, load.get(key)) for k, key in READING.items()}})
-    rec = _load(data, args, res.model)
-    for c, fitted in (src.get("peaks") or {}).items():
-        if c in rec.channels and fitted > 0:
+    given = reading_of(args)
+    fitted = Reading.from_record(src.get("load"))
+    if given.given or not fitted.given or not Path(data).exists():
+        rec = _load(data, args, res.model, given)
+    else:
+        try:
+            rec = _load(data, args, res.model, fitted)
+        except ColumnError as e:
+            try:
+                rec = _load(data, args, res.model, Reading(constants=fitted.constants))
+            except ValueError:
+                raise e from None
+            print(f"note: {Path(data).name} is not in the fit's layout ({e.args[0].split('; ')[0].split(': ')[-1]}): read by its own "
+                  f"header ({', '.join(res.model.channels)}), without the fit's units and scales")  # fmt: skip
+    for c, peak_fit in (src.get("peaks") or {}).items():
+        if c in rec.channels and peak_fit > 0:
             peak = float(np.max(np.abs(rec[c])))
-            ratio = peak / fitted
+            ratio = peak / peak_fit
             if not 0.1 <= ratio <= 10:
-                warnings.warn(f"{rec.name}: the peak of {c} is {ratio:.3g}x the fitted recording's ({peak:.4g} vs {fitted:.4g}): "
+                warnings.warn(f"{rec.name}: the peak of {c} is {ratio:.3g}x the fitted recording's ({peak:.4g} vs {peak_fit:.4g}): "
                               "a unit or scale slip? (--units, --scale)", stacklevel=2)  # fmt: skip
     return rec
-
-
-def _flag(key: str, value):
-    """A saved loading option in the command line's spelling (NAME=VALUE pairs for the mappings)."""
-    if isinstance(value, dict):
-        return ",".join(f"{k}={v}" for k, v in value.items())
-    return "." if key == "decimal" and value is None else value
 
 
 def simulate_cmd(args) -> int:

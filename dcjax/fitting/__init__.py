@@ -1,16 +1,20 @@
-"""The search and its result: `fit` (one entry point) over the engine (`Search`, `Setup`, the
-compiled runs), the runner (keys, sharding, the executable cache), batches of recordings
-(`fit_each`, `fit_setups`), the Levenberg-Marquardt polish, and the `FitResult` with its
-save/load. `dcjax.fit` is the function; `dcjax.fitting.fit` its module (a subpackage re-exports
-no name that is also one of its modules)."""
+"""The search and its result: `fit` and `fit_each` (the boundaries) over one path: a `Plan` and
+a `Setup` per fit (`dcjax.fitting.setup`), the compiled runs of every setup
+(`dcjax.fitting.runs`, over the runner's keys, sharding and executable cache), the
+Levenberg-Marquardt polish and each setup's `FitResult` (`dcjax.fitting.engine`), with its
+save/load, and the summary of a batch. `dcjax.fit` is the function; `dcjax.fitting.fit` its
+module (a subpackage re-exports no name that is also one of its modules)."""
 
-from .each import FailedFit, fit_each
-from .engine import Search, Setup, with_weights
-from .result import FitResult, load_result
+from .each import fit_each
+from .observation import Observation
+from .result import FailedFit, FitResult, load_result
+from .setup import Plan, Search, Setup, with_weights
 
 __all__ = [
     "FailedFit",
     "FitResult",
+    "Observation",
+    "Plan",
     "Search",
     "Setup",
     "fit_each",

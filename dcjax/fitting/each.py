@@ -1,52 +1,37 @@
-"""Many independent recordings, one fit each: `fit_each`, the per-recording failure that does not
-stop the others, and the summary of a batch (one row per recording, robust outlier flags)."""
+"""Many independent recordings, one fit each: `fit_each`, where a recording that fails to load,
+check or prepare fails alone (`FailedFit`) and every other one is fitted, the recordings of one
+structure in one compiled call."""
 
-import dataclasses
-import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import numpy as np
-
-from ..analysis.checks import ERROR, check_recording, fleet_findings, from_error
+from ..analysis.checks import ERROR, batch_findings, from_error
+from ..io.loading import load_recording
 from ..io.recording import Recording
-from ..models import get_model
+from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
 from ..strategies import Strategy
-from .result import FitResult
-
-OUTLIER_Z = 3.5  # modified z-score (Iglewicz & Hoaglin): 0.6745 |x - median| / MAD
-
-
-@dataclasses.dataclass
-class FailedFit:
-    """A recording that could not be loaded, validated or fitted, with its one-line error."""
-
-    name: str
-    error: str
-    source: str | None = None
-    success: bool = False
-    checks: list = dataclasses.field(default_factory=list)  # data-check findings (`dcjax.analysis.checks.Finding`)
+from ..strategies.memory import MemoryAssistance
+from .engine import fit_setups
+from .observation import Observation
+from .result import FailedFit, FitResult
+from .setup import plan
 
 
 def fit_each(
     items: Sequence[Recording | str | Path],
     model=None,
-    params=None,
+    params: "Parameters | str | Sequence | Callable[[Recording], Parameters] | None" = None,
     method: "str | Strategy" = "de-rand-1-exp",
     *,
     load: Callable[[str], Recording] | None = None,
-    integrator=None,
+    observation: Observation | None = None,
+    integrator: Integrator | AutoSubsteps | None = None,
     runs: int = 50,
     budget: int = 140_000,
-    generations: int | None = None,
     seed: int = 0,
-    memory=None,
+    memory: MemoryAssistance | None = None,
     polish: bool = False,
-    loss=None,
-    initial: dict | None = None,
-    offsets: Sequence[str] = (),
-    delays: Sequence[str] = (),
     progress=None,
     checks: bool = True,
 ) -> list[FitResult | FailedFit]:
@@ -54,232 +39,46 @@ def fit_each(
 
     `items`: recordings, or paths loaded with `load` (default `dcjax.load_recording` with the
     model). Every recording goes through the data checks (`dcjax.analysis.checks`, with the
-    fleet's median peaks); one that fails to load, has an `error` finding, or fails to prepare (its
-    channels, its first estimate) gets a `FailedFit` with its one-line error and every other one
-    is fitted; the findings are in each result's `checks` (`checks=False`: no data checks, for a
-    caller that has made them).
-    `params`: as `fit` takes it, for every recording, or a list with one entry per item; None takes
-    each recording's sidecar preset, else `"auto"`. Recordings of one shape (length, channels,
-    limit, free parameters, weights) are fitted in one compiled call
-    (`dcjax.fitting.batch.fit_setups`: the same results as one fit each); with `AutoSubsteps` or
-    `progress` they are fitted one after another. An error of the batched call itself (not of one
-    recording) is raised. `loss`, `initial`, `offsets`, `delays`: as `fit` takes them."""
-    from ..io.loading import load_recording
-    from .batch import fit_setups
-    from .engine import prepare
-    from .fit import check_integrator, fit, observation_of, search_of
-    from .vector import resolve_parameters
-
-    m = get_model(model)
-    integ = check_integrator(integrator, m)
-    search = search_of(method, runs, budget, generations, seed, memory, polish)
-    observation = observation_of(m, loss, initial, offsets, delays, polish)
-    terms: dict = dict(loss=observation.loss, initial=dict(observation.initial), offsets=observation.offsets, delays=observation.delays)
-    loader = load or (lambda p: load_recording(p, model=m))
-    if isinstance(params, (list, tuple)):
-        if len(params) != len(items):
-            raise ValueError(f"params: one entry per recording ({len(items)}), got {len(params)}")
-        each = list(params)
-    else:
-        each = [params] * len(items)
+    fleet's median peaks; `checks=False`: none); one that fails to load, has an `error` finding,
+    or fails to prepare (its channels, its first estimate) gets a `FailedFit` with its one-line
+    error and every other one is fitted; the findings are in each result's `checks`.
+    `params`: as `fit` takes it, for every recording; a list with one entry per item; or a
+    function of the loaded recording returning its `Parameters`. Recordings of one structure
+    (length, channels, limit, free parameters, layout) are fitted in one compiled call, with the
+    same results as one fit each (`dcjax.fitting.runs`), with `AutoSubsteps` and `progress` too.
+    An error of the batched call itself (not of one recording) is raised."""
+    p = plan(model, method, observation=observation, integrator=integrator, runs=runs, budget=budget, seed=seed, memory=memory,
+             polish=polish)  # fmt: skip
+    if isinstance(params, (list, tuple)) and len(params) != len(items):
+        raise ValueError(f"params: one entry per recording ({len(items)}), got {len(params)}")
+    loader = load or (lambda path: load_recording(path, model=p.model))
     out: list = [None] * len(items)
     loaded: list = []
     for k, item in enumerate(items):
-        name = item.name if isinstance(item, Recording) else Path(str(item)).stem
         source = None if isinstance(item, Recording) else str(item)
         try:  # one broken recording fails alone, whatever broke in loading it
             loaded.append((k, item if isinstance(item, Recording) else loader(str(item)), source))
         except Exception as e:
-            out[k] = _failed(name, e, source)
-    setups: list = []
-    fleet = fleet_findings([r for _, r, _ in loaded], m) if checks else [[] for _ in loaded]
-    for (k, rec, source), extra in zip(loaded, fleet):
-        findings = check_recording(rec, m) + extra if checks else []
+            out[k] = failed(item.name if isinstance(item, Recording) else Path(str(item)).stem, e, source)
+    found = batch_findings([r for _, r, _ in loaded], p.model) if checks else [[] for _ in loaded]
+    ready: list = []
+    for (k, rec, source), findings in zip(loaded, found):
         errors = [f for f in findings if f.severity == ERROR]
         if errors:
-            out[k] = FailedFit(rec.name, f"{errors[0].check}: {errors[0].message}", source, checks=findings)
+            out[k] = FailedFit(rec.name, f"{errors[0].label}: {errors[0].message}", source, checks=findings)
             continue
         try:  # one broken recording fails alone, whatever broke in preparing it
-            if isinstance(integ, AutoSubsteps) or progress:
-                out[k] = fit(rec, m, each[k], search.strategy, integrator=integ, runs=runs, budget=budget, generations=generations,
-                             seed=seed, memory=memory, polish=polish, progress=progress, **terms)  # fmt: skip
-                out[k].checks = findings
-                continue
-            assert isinstance(integ, Integrator)
-            setups.append((k, prepare([rec], m, resolve_parameters(each[k], [rec], m), integ, observation=observation), findings))
+            given = params[k] if isinstance(params, (list, tuple)) else params(rec) if callable(params) else params
+            ready.append((k, p.setup([rec], given, findings=findings)))
         except Exception as e:
-            out[k] = _failed(rec.name, e, source, findings)
-    if setups:
-        for (k, _, findings), res in zip(setups, fit_setups([s for _, s, _ in setups], search)):
-            res.checks = findings
-            out[k] = res
+            out[k] = failed(rec.name, e, source, findings)
+    for (k, _), res in zip(ready, fit_setups(p, [s for _, s in ready], progress)):
+        out[k] = res
     return out
 
 
-def _failed(name: str, e: Exception, source: str | None, findings: list | None = None) -> FailedFit:
+def failed(name: str, e: Exception, source: str | None, findings: list | None = None) -> FailedFit:
+    """The `FailedFit` of a recording whose loading, checks or preparation raised `e`."""
     named = from_error(e)
     return FailedFit(name=name, error=(str(e).splitlines() or [type(e).__name__])[0], source=source,
                      checks=list(findings or []) + ([named] if named is not None else []))  # fmt: skip
-
-
-def robust_outliers(values: np.ndarray, z: float = OUTLIER_Z, above_only: bool = False) -> np.ndarray:
-    """Modified z-score rule: |0.6745 (x - median) / MAD| > z (with `above_only`, only above the
-    median), on log10 |x| where every value is positive (parameters and OFs spread over decades).
-    NaN values are not judged. Needs 4 values; else nothing is flagged."""
-    x = np.asarray(values, float)
-    ok = np.isfinite(x)
-    flags = np.zeros(x.shape, bool)
-    if ok.sum() < 4:
-        return flags
-    v = np.log10(x[ok]) if np.all(x[ok] > 0) else x[ok]
-    med = np.median(v)
-    mad = np.median(np.abs(v - med))
-    dev = v - med if above_only else np.abs(v - med)
-    if mad == 0:
-        flags[ok] = dev > 1e-9 * max(1.0, abs(med))  # all alike but these
-        return flags if flags.sum() < 0.5 * ok.sum() else np.zeros(x.shape, bool)
-    flags[ok] = 0.6745 * dev / mad > z
-    return flags
-
-
-AT_BOUND_RTOL = 1e-3  # within 0.1 % of the range from a bound: "at the bound", not an outlier for being there
-
-
-def outlier_flags(rows: list[dict], results: Sequence[FitResult], names: Sequence[str]) -> list[list[str]]:
-    """The outlier rule of a batch (one list of flags per fitted row):
-
-    - `of`: an OF far above the fleet's (modified z of log10 OF > 3.5, above the median only);
-    - `fit_<channel>`: fit % <= 0 on that channel, always;
-    - a free parameter: modified z > 3.5 (on log10 where all positive) among the fits where it is
-      not at a bound: a parameter at (or within `AT_BOUND_RTOL` of the range from) a bound, such as
-      a load coefficient fitted to its zero bound, carries no information on the fleet's spread and
-      is neither judged nor used for the median."""
-    flags: list[list[str]] = [[] for _ in rows]
-    for k, bad in enumerate(robust_outliers(np.array([r["of"] for r in rows]), above_only=True)):
-        if bad:
-            flags[k].append("of")
-    for k, row in enumerate(rows):
-        flags[k] += [c for c in row if c.startswith("fit_") and not row[c] > 0]
-    at = [set(r.at_bound(rtol=AT_BOUND_RTOL)) for r in results]
-    fixed = set().union(*(r.fixed for r in results)) if results else set()
-    for n in names:
-        if n in fixed:
-            continue
-        values = np.array([np.nan if n in at[k] else rows[k][n] for k in range(len(rows))])
-        for k, bad in enumerate(robust_outliers(values)):
-            if bad:
-                flags[k].append(n)
-    return flags
-
-
-def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[dict]:
-    """One row per recording: status, error, OF, parameters, fit % per channel, at-bound
-    parameters, the data checks' findings (`checks`: before and after the fit) and the outlier
-    flags (`outlier_flags`)."""
-    from ..analysis.checks import fit_findings
-    from ..analysis.report import channel_fit
-
-    m = get_model(model) if model is not None else next((r.model for r in results if isinstance(r, FitResult)), get_model())
-    rows = []
-    for r in results:
-        if isinstance(r, FailedFit):
-            rows.append({"name": r.name, "file": r.source or "", "status": "failed", "error": r.error,
-                         "checks": " ".join(f.label for f in r.checks)})  # fmt: skip
-            continue
-        row = {"name": r.recording.name if r.recording else "", "file": _source(r), "status": "ok", "error": "", "of": r.of}
-        row.update(dict(r.best_values))  # the model's parameters, then any fitted y0_*, offset_*, delay_*
-        findings = list(r.checks)
-        for rec in r.recordings[:1]:
-            fits = channel_fit(r, rec)
-            row.update({f"fit_{c}": v for c, v in fits.items()})
-            findings += fit_findings(r, rec, fits)
-        row["at_bound"] = " ".join(r.at_bound())
-        row["checks"] = " ".join(f.label for f in findings)
-        rows.append(row)
-    ok = [k for k, row in enumerate(rows) if row["status"] == "ok"]
-    fitted = [r for r in results if isinstance(r, FitResult)]
-    for k, f in zip(ok, outlier_flags([rows[k] for k in ok], fitted, m.names)):
-        rows[k]["outlier"] = " ".join(f)
-    return rows
-
-
-def _source(r: FitResult) -> str:
-    data = r.settings.get("data") or [{}]
-    return str(data[0].get("path", "")) if isinstance(data[0], dict) else ""
-
-
-def write_summary(rows: list[dict], folder: Path, model=None, plot: bool = True) -> tuple[Path, Path]:
-    """`summary.csv` (every row, failed ones with their error) and `summary.png` (each
-    parameter's spread over the recordings, outliers marked)."""
-    import csv
-
-    m = get_model(model)
-    folder.mkdir(parents=True, exist_ok=True)
-    channels = [f"fit_{c}" for c in m.outputs]
-    known = {"name", "file", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"}
-    extra = list(dict.fromkeys(k for row in rows for k in row if k not in known))  # the experiment's y0_*, offset_*, delay_*
-    cols = ["name", "file", "status", "error", "of", *m.names, *extra, *channels, "at_bound", "checks", "outlier"]
-    csv_path = folder / "summary.csv"
-    with csv_path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")
-        w.writeheader()
-        for row in rows:
-            w.writerow({c: (f"{row[c]:.10g}" if isinstance(row.get(c), float) else row.get(c, "")) for c in cols})
-    png = folder / "summary.png"
-    if plot:
-        _plot_summary(rows, m, png)
-    return csv_path, png
-
-
-def _plot_summary(rows, m, path: Path) -> None:
-    """Each parameter (and the OF) over the fitted recordings, x labelled by their names on the
-    bottom row (the panels share x), the outliers marked and named, the failed recordings named
-    under the title. A fixed layout: constrained layout of ~100 rotated names took seconds."""
-    import textwrap
-
-    from matplotlib.figure import Figure
-
-    ok = [r for r in rows if r["status"] == "ok"]
-    cols = ["of", *m.names]
-    n = len(cols)
-    ncol = min(4, n)
-    nrow = math.ceil(n / ncol)
-    names = [r["name"] for r in ok]
-    label_in = 0.09 * max((len(s) for s in names), default=1) + 0.3  # room for the rotated names
-    width, height = max(3.2, 0.11 * len(ok) + 1.2) * ncol, 2.4 * nrow + label_in + 1.0
-    fig = Figure(figsize=(width, height))
-    axes = fig.subplots(nrow, ncol, squeeze=False, sharex=True)
-    fig.subplots_adjust(left=0.06, right=0.99, top=1 - 0.9 / height, bottom=label_in / height, hspace=0.35, wspace=0.3)
-    k = np.arange(len(ok))
-    every = max(1, len(ok) // 80)  # at most ~80 names on an axis
-    for j, ax in enumerate(axes.ravel()):
-        if j >= n:
-            ax.set_visible(False)
-            continue
-        c = cols[j]
-        v = np.array([r[c] for r in ok], float)
-        out = np.array([c in r.get("outlier", "").split() for r in ok], bool)
-        at = np.array([c in r.get("at_bound", "").split() for r in ok], bool) & ~out
-        ax.plot(k[~out & ~at], v[~out & ~at], "o", color="tab:blue", ms=4)
-        ax.plot(k[at], v[at], "o", mfc="none", color="0.6", ms=4)  # at a bound: no information on the spread
-        ax.plot(k[out], v[out], "x", color="tab:red", ms=7)
-        for i in np.flatnonzero(out):
-            ax.text(k[i], v[i], " " + names[i], fontsize=6, color="tab:red")
-        if len(v) and np.all(v > 0):
-            ax.set_yscale("log")
-        if len(v):
-            ax.axhline(float(np.median(v)), color="0.5", lw=0.8)
-        unit = m.units.get(c, "")
-        ax.set_title("OF" if c == "of" else f"{c} ({unit})" if unit else c, fontsize=9)
-        ax.set_xticks(k[::every], names[::every], rotation=90, fontsize=6 if len(ok) <= 40 else 5)
-        ax.tick_params(labelbottom=j >= n - ncol)  # the names under the lowest panel of each column
-    failed = [r["name"] for r in rows if r["status"] != "ok"]
-    flagged = [r["name"] for r in ok if r.get("outlier")]
-    lines = [f"{len(ok)} fitted, {len(failed)} failed; x: outlier (modified z > {OUTLIER_Z:g}, fit % <= 0, OF far above the fleet's); "
-             "open grey: at a bound"]  # fmt: skip
-    if flagged:
-        lines.append("outliers: " + ", ".join(flagged))
-    if failed:
-        lines.append("failed: " + ", ".join(failed))
-    fig.suptitle("\n".join(textwrap.fill(x, int(12 * width)) for x in lines), fontsize=8)
-    fig.savefig(path, dpi=90)

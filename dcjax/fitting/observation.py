@@ -20,13 +20,32 @@ SPECS = ("measured", "derivative", "fit")
 
 @dataclasses.dataclass(frozen=True)
 class Observation:
-    """`loss` (default `SSE()`: eq. 24/27), `initial` state -> spec (module docstring), the measured
-    channels with an additive sensor offset `offset_<channel>`, the inputs with a delay `delay_<input>` (s)."""
+    """How a fit observes and scores its recordings beyond the model (module docstring):
+
+        dcjax.Observation(loss="huber:0.05", initial={"omega": "fit"}, offsets=("i_a",), delays=("u_a",))
+
+    `loss`: a `dcjax.Loss` or its spec (`"sse"`, the default, eq. 24/27; `"l1"`; `"huber:DELTA"`);
+    `initial`: state -> a number, `"measured"`, `"derivative"` or `"fit"` (a free `y0_<state>` per
+    recording); `offsets`: measured channels with an additive sensor offset `offset_<channel>`;
+    `delays`: inputs with a delay `delay_<input>` in seconds. `check(model)` checks the names."""
 
     loss: Loss = dataclasses.field(default_factory=lambda: get_loss(None))
     initial: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     offsets: tuple[str, ...] = ()
     delays: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if not isinstance(self.loss, (str, Loss)):
+            raise ValueError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss (dcjax.L1(), dcjax.Huber(delta=0.1)), got {self.loss!r}")
+        if not isinstance(self.initial, Mapping):
+            raise ValueError(f"initial must be a state -> number|'measured'|'derivative'|'fit' mapping, got {self.initial!r}")
+        for what in ("offsets", "delays"):
+            names = getattr(self, what)
+            if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+                raise ValueError(f"{what} must be a list of channel names, got {names!r}")
+            object.__setattr__(self, what, tuple(names))
+        object.__setattr__(self, "loss", get_loss(self.loss))
+        object.__setattr__(self, "initial", {str(k): initial_spec(v, str(k)) for k, v in dict(self.initial).items()})
 
     @property
     def plain(self) -> bool:
@@ -34,14 +53,11 @@ class Observation:
         return self.loss == get_loss(None) and not self.initial and not self.offsets and not self.delays
 
     def check(self, model: Model) -> "Observation":
-        """One-line errors for what `model` does not have; returns the observation with its
-        initial specs normalised (numbers as floats, names lower-case)."""
-        initial = {}
-        for state, spec in dict(self.initial).items():
+        """One-line errors for what `model` does not have; returns the observation."""
+        for state, spec in self.initial.items():
             if state not in model.states:
                 raise ValueError(f"initial: unknown state {state!r}; model {model.name} has states {', '.join(model.states)}")
-            initial[state] = initial_spec(spec, state)
-            if initial[state] == "derivative" and state not in model.derivative_of:
+            if spec == "derivative" and state not in model.derivative_of:
                 raise ValueError(f"initial: {state}=derivative needs a state that is the derivative of another (Model.derivative_of); "
                                  f"model {model.name} has {dict(model.derivative_of) or 'none'}")  # fmt: skip
         bad = [c for c in self.offsets if c not in model.outputs]
@@ -53,7 +69,7 @@ class Observation:
         for what, names in (("offset", self.offsets), ("delay", self.delays)):
             if len(set(names)) != len(names):
                 raise ValueError(f"{what}: a channel is named twice in {', '.join(names)}")
-        return dataclasses.replace(self, initial=initial, offsets=tuple(self.offsets), delays=tuple(self.delays))
+        return self
 
     def spec_of(self, state: str, model: Model, recording: Recording) -> "float | str":
         """The initial spec of `state` for `recording`: the given one, else the default."""

@@ -4,7 +4,9 @@ its JSON form and its restoration without refitting."""
 
 import dataclasses
 import json
+from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING
 
 import equinox as eqx
@@ -35,19 +37,33 @@ if TYPE_CHECKING:
     from ..analysis.uncertainty import Uncertainty
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True)
+class FailedFit:
+    """A recording that could not be loaded, validated or fitted, with its one-line error."""
+
+    name: str
+    error: str
+    source: str | None = None
+    success: bool = False
+    checks: list = dataclasses.field(default_factory=list)  # data-check findings (`dcjax.analysis.checks.Finding`)
+
+
+@dataclasses.dataclass(frozen=True)
 class FitResult:
     """Best parameters over all runs (`params`, a `Parameters`; `best_values`, name -> float),
-    per-run results and their statistics."""
+    per-run results and their statistics. Made once from a fit's setup and runs (or a saved
+    result.json) and not changed after: `uncertainty()` returns a new result. The configuration
+    is typed (`model`, `integrator`, `observation`, `layout`, `bounds`, `weights`,
+    `joint_weights`); `settings` is its record as result.json keeps it (read-only)."""
 
     best_values: dict[str, float]
     of: float
     run_of: np.ndarray  # (R,)
-    run_params: np.ndarray  # (R, P), physical units, model order
+    run_params: np.ndarray  # (R, P), physical units, the search vector's order
     fes: np.ndarray  # (R,) real evaluations
     iterations: np.ndarray  # (R,)
     history: np.ndarray  # (R, T) best OF after each iteration (NaN past a run's end)
-    settings: dict
+    settings: Mapping
     timing: dict
     polish: dict | None = None
     dups: np.ndarray | None = None  # (R,) candidates answered from memory
@@ -56,10 +72,26 @@ class FitResult:
     model: Model = dataclasses.field(default_factory=get_model, repr=False)
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)
     integrator: Integrator | None = dataclasses.field(default=None, repr=False)  # None: from the settings
-    checks: list = dataclasses.field(default_factory=list)  # data-check findings (`dcjax.analysis.checks.Finding`)
+    checks: tuple = ()  # data-check findings (`dcjax.analysis.checks.Finding`)
     observation: Observation = dataclasses.field(default_factory=Observation, repr=False)  # loss, initial states, offsets, delays
     layout: Layout | None = dataclasses.field(default=None, repr=False)  # None: the model's parameters, shared
+    bounds: Bounds | None = dataclasses.field(default=None, repr=False)  # of the search vector (None: from the settings)
+    weights: tuple[float, ...] = ()  # channel weights (eq. 27; empty: from the settings)
+    joint_weights: tuple[float, ...] | None = None  # each recording's share where not equal (None: equal shares)
     _uncertainty: object = dataclasses.field(default=None, repr=False)
+
+    def __post_init__(self):
+        s = self.settings
+        object.__setattr__(self, "settings", MappingProxyType(dict(s)))
+        object.__setattr__(self, "checks", tuple(self.checks))
+        if self.bounds is None:
+            object.__setattr__(self, "bounds", Bounds(s["bounds"]["lower"], s["bounds"]["upper"], self.names))
+        if not self.weights:
+            object.__setattr__(self, "weights", tuple(float(w) for w in s.get("weights") or [1.0] * len(self.model.outputs)))
+        if self.joint_weights is None and s.get("joint_weights"):
+            object.__setattr__(self, "joint_weights", tuple(float(w) for w in s["joint_weights"]))
+        if self.integrator is None:
+            object.__setattr__(self, "integrator", get_integrator(s["integrator"], int(s["nd"])))
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -80,19 +112,14 @@ class FitResult:
         return self.recordings[0] if self.recordings else None
 
     @property
-    def bounds(self) -> Bounds:
-        b = self.settings["bounds"]
-        return Bounds(b["lower"], b["upper"], self.names)
-
-    @property
     def space(self) -> Space:
+        assert self.bounds is not None  # set in __post_init__
         return vector_space(self.names, self.bounds, self.fixed, f"model {self.model.name}")
 
     def integrator_used(self) -> Integrator:
-        """The fitted integrator: the object itself, or (a loaded result) the one its settings name."""
-        if self.integrator is not None:
-            return self.integrator
-        return get_integrator(self.settings["integrator"], int(self.settings["nd"]))
+        """The fitted integrator."""
+        assert self.integrator is not None
+        return self.integrator
 
     def _rows(self, recordings) -> list[int] | None:
         """The fitted recording each of `recordings` is (the object, or one of the same name and
@@ -115,16 +142,14 @@ class FitResult:
     def problems(self, recordings=None, loss=None):
         """The settings' problems (integrator, weights, loss, initial states) for `recordings`
         (default: the fitted ones, each with its own limit); `loss` instead of the fit's."""
-        s = self.settings
         recs = self.recordings if recordings is None else recordings
         if not recs:
             raise ValueError("no recording: the result was loaded without its data; pass a recording")
-        if s.get("i_limit") is not None:  # a 0.1 result file: the limit was a setting
-            recs = [r.replace(limit=float(s["i_limit"])) for r in recs]
-        integ = self.integrator_used()
+        if self.settings.get("i_limit") is not None:  # a 0.1 result file: the limit was a setting
+            recs = [r.replace(limit=float(self.settings["i_limit"])) for r in recs]
         obs, fitted = self.observation, self._fitted(recordings)
         return [
-            make_problem(r, integ, tuple(s["weights"]), model=self.model, loss=obs.loss if loss is None else loss,
+            make_problem(r, self.integrator, self.weights, model=self.model, loss=obs.loss if loss is None else loss,
                          initial=obs.initial_values(self.model, r, fitted))
             for r in recs
         ]  # fmt: skip
@@ -139,7 +164,7 @@ class FitResult:
         if rows is None:
             return JointProblem(tuple(probs), (1.0 / len(probs),) * len(probs), transferred(layout, len(probs)))
         if recordings is None:  # the fit's own weights (settings: given or pooled; else equal shares)
-            jw = self.settings.get("joint_weights") or [1.0 / len(probs)] * len(probs)
+            jw = self.joint_weights or [1.0 / len(probs)] * len(probs)
         else:
             jw = [1.0 / len(probs)] * len(probs)
         return JointProblem(tuple(probs), tuple(float(w) for w in jw), rows_of(layout, rows))
@@ -261,6 +286,7 @@ class FitResult:
         floats are `best_values`. Built from the result on each access: a copy to change and pass
         to the next `fit`, which leaves this result as it is."""
         b = self.bounds
+        assert b is not None
         u = self._uncertainty
         prec = dict(zip(self.names, self.settings["precision"])) if self.settings.get("precision") else self.model.memory_precision or {}
         out = []
@@ -291,6 +317,7 @@ class FitResult:
     def at_bound(self, rtol: float = 1e-9) -> list[str]:
         """Free parameters that ended on a search bound."""
         b = self.bounds
+        assert b is not None
         lo, hi = np.asarray(b.lower), np.asarray(b.upper)
         out = []
         for k, n in enumerate(self.names):
@@ -318,7 +345,7 @@ class FitResult:
             "duplicates": self.duplicates,
             "mean_params": self.mean_params,
             "polish": self.polish,
-            "settings": self.settings,
+            "settings": dict(self.settings),
             "timing": self.timing,
             "model": model_spec(self.model),
             "names": list(names),
@@ -428,7 +455,7 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
         recordings=list(recordings),
         model=m,
         fixed={k: float(v) for k, v in (d.get("fixed") or {}).items()},
-        checks=[Finding(**f) for f in d.get("checks") or []],
+        checks=tuple(Finding(**f) for f in d.get("checks") or []),
         observation=observation,
         layout=None if "names" not in d["settings"] else layout_of(names, m, observation, len(d["settings"].get("data") or [0])),
     )

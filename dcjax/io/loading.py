@@ -2,7 +2,9 @@
 MATLAB `.mat` files, columns mapped to a model's channels, units converted to SI, and the
 preprocessing (time window, decimation, switch-on trimming) recorded with the data's origin."""
 
+import dataclasses
 import hashlib
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -106,6 +108,45 @@ def read_mat(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class Reading:
+    """How a file is read (not what is kept of it): `columns` channel -> column name (or 0-based
+    index), `units` channel -> unit (converted to SI), `scale` channel -> factor (after the
+    units), `dt` (s) or `rate` (Hz) for a file without a time column, the `delimiter` and
+    `decimal` separator of a text file, and `constants` (inputs constant in the recording).
+    A fit records it with each file (result.json's `load`), so validate, simulate and design read
+    a file in the fit's layout as the fit did (`Reading.from_record`)."""
+
+    columns: Mapping[str, str] | None = None
+    units: Mapping[str, str] | None = None
+    scale: Mapping[str, float] | None = None
+    dt: float | None = None
+    rate: float | None = None
+    delimiter: str | None = None
+    decimal: str = "."
+    constants: Mapping[str, float] | None = None
+
+    @property
+    def given(self) -> bool:
+        """Anything but the defaults (a file in dcjax's own layout, SI units)."""
+        return self != Reading()
+
+    def to_dict(self) -> dict:
+        """The non-default fields (result.json's `load` record)."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return {
+            k: (dict(v) if isinstance(v, Mapping) else v)
+            for k, v in out.items()
+            if v not in (None, {}) and not (k == "decimal" and v == ".")
+        }
+
+    @classmethod
+    def from_record(cls, record: Mapping | None) -> "Reading":
+        """The reading a result's `load` record holds (what is kept, window/every/trim, aside)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in (record or {}).items() if k in names and v is not None})
+
+
 def sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
@@ -125,9 +166,10 @@ def _window(text_or_pair) -> tuple[float, float] | None:
     return float(a), float(b)
 
 
-def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool | float = False) -> Recording:
+def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool | float = False, model: Model | None = None) -> Recording:
     """Keep t in `window` = (T0, T1) (s), then every `every`-th sample, then trim before the
-    switch-on (`trim=True` or a threshold fraction of max|u|, `dcjax.trim_switch_on`)."""
+    switch-on (`trim=True` or a threshold fraction of max|u|, `dcjax.trim_switch_on`) of the
+    model's first input (default: the paper's drive, `u_a`)."""
     w = _window(window)
     if w is not None:
         keep = (rec.t >= w[0]) & (rec.t <= w[1])
@@ -139,7 +181,10 @@ def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool
             raise ValueError(f"every must be a positive integer, got {every!r}")
         rec = rec.select(slice(None, None, int(every)))
     if trim:
-        rec = trim_switch_on(rec, threshold=0.02 if trim is True else float(trim))
+        m = get_model(model)
+        if not m.inputs:
+            raise ValueError(f"trim: model {m.name} has no input to find the switch-on in")
+        rec = trim_switch_on(rec, threshold=0.02 if trim is True else float(trim), channel=m.inputs[0])
     return rec
 
 
@@ -160,6 +205,7 @@ def load_recording(
     dt: float | None = None,
     rate: float | None = None,
     constants: dict | None = None,
+    reading: Reading | None = None,
 ) -> Recording:
     """A recording from a file, with the model's channels (default: the paper's `t, u_a, i_a,
     omega`) in SI units.
@@ -180,7 +226,15 @@ def load_recording(
       is not read from the file; one that is not is read from its column.
     - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
       (cut before switch-on) — recorded, with the file's path and sha256, in
-      `metadata["source"]`, so a saved result can reload the same data."""
+      `metadata["source"]`, so a saved result can reload the same data.
+    - `reading`: a `Reading` holding `columns`, `units`, `scale`, `dt`, `rate`, `delimiter`,
+      `decimal` and `constants` in one object (instead of those keywords)."""
+    if reading is not None:
+        if (columns, units, scale, dt, rate, delimiter, decimal, constants) != (None, None, None, None, None, None, ".", None):
+            raise ValueError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
+        as_dict = lambda m: None if m is None else dict(m)
+        columns, units, scale, dt, rate = as_dict(reading.columns), as_dict(reading.units), as_dict(reading.scale), reading.dt, reading.rate
+        delimiter, decimal, constants = reading.delimiter, reading.decimal, as_dict(reading.constants)
     m = get_model(model)
     path = Path(path)
     if not path.is_file():
@@ -207,21 +261,14 @@ def load_recording(
     limit = limit if limit is not None else meta.get("i_a_limit")
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
-    rec = preprocess(rec, window, every, trim)
-    load = {
-        "columns": columns or None,
-        "units": units or None,
-        "delimiter": delimiter,
-        "decimal": decimal,
+    rec = preprocess(rec, window, every, trim, m)
+    kept = {
         "window": None if window is None else list(_window(window) or ()),
         "every": every,
         "trim": trim,
         "limit": limit,
-        "constants": constants or None,
-        "scale": scale or None,
-        "dt": dt,
-        "rate": rate,
         "model": None if model is None else (m.name if isinstance(model, str) else None),
     }
-    load = {k: v for k, v in load.items() if v not in (None, False) and not (k == "decimal" and v == ".")}
+    read = Reading(columns or None, units or None, scale or None, dt, rate, delimiter, decimal, constants or None)
+    load = read.to_dict() | {k: v for k, v in kept.items() if v not in (None, False)}
     return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})

@@ -276,12 +276,16 @@ def save_csv(recording: Recording, path: str | Path, metadata: dict | None = Non
 def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: bool = False, channel: str = "u_a") -> Recording:
     """Keep only the part after the armature is switched on (paper Fig. 6).
 
-    Switch-on shows as the first sample whose |u| (channel `channel`) exceeds
+    Switch-on shows as the first sample whose |u| (input `channel`, the paper's drive: `u_a`) exceeds
     `threshold * max|u|`; it and the samples after it are kept, and the simulation starts from it
     (its measured states are the initial state). With `rezero_time`, time restarts at 0 there."""
+    if not recording.has(channel):
+        raise ValueError(
+            f"{recording._where()}trim: no input {channel!r} to find the switch-on in (channel=; it has {', '.join(recording.channels)})"
+        )
     u = np.abs(recording[channel])
     if not u.max() > 0:
-        raise ValueError(f"{recording._where()}voltage is zero everywhere: no switch-on to find")
+        raise ValueError(f"{recording._where()}input {channel} is zero everywhere: no switch-on to find")
     start = int(np.flatnonzero(u > threshold * u.max())[0])
     out = recording.select(slice(start, None))
     return out.replace(t=out.t - out.t[0]) if rezero_time else out

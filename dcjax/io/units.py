@@ -17,6 +17,10 @@ SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s
             "position": "m", "speed": "m/s", "force": "N"}  # fmt: skip
 
 
+class ColumnError(ValueError):
+    """A channel's column is not in the file (a one-line error naming it and the file's columns)."""
+
+
 def unit_factor(channel: str, unit: str, quantity: str | None) -> float:
     """SI factor of `unit` for `channel` of `quantity` (None: any known quantity)."""
     tables = {quantity: UNITS[quantity]} if quantity in UNITS else UNITS
@@ -125,7 +129,7 @@ def select_channels(
             hint = " or give the sample time with dt/--dt or rate/--rate" if c == "t" else ""
             if c in inputs:  # an input may be constant in a recording
                 hint = f"; or, as the model's inputs ({', '.join(inputs)}) may be, a constant: constants=/--const {c}=V or the sidecar's 'constants'"
-            raise ValueError(
+            raise ColumnError(
                 f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns/--columns {c}=NAME{hint})"
             )
         factor = unit_factor(c, units[c], "time" if c == "t" else quantities.get(c)) if c in units else 1.0

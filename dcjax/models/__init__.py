@@ -49,7 +49,8 @@ FILE_MODULE_PREFIX = "dcjax_model_file_"
 
 def _import_file(path: str):
     """The module defined by a `.py` file, imported once per file (under a name derived from its
-    absolute path, so `model_spec` can name the file again)."""
+    absolute path, so `model_spec` can name the file again). While it loads, its own folder is
+    importable (`from pmsm import PMSM` of a `pmsm.py` beside it), and only then."""
     file = Path(path).expanduser().resolve()
     if not file.is_file():
         raise ImportError(f"no such file: {path}")
@@ -61,11 +62,18 @@ def _import_file(path: str):
         raise ImportError(f"cannot load {path} as a Python module")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
+    folder = str(file.parent)
+    added = folder not in sys.path
+    if added:
+        sys.path.insert(0, folder)
     try:
         spec.loader.exec_module(module)
     except BaseException:
         del sys.modules[name]
         raise
+    finally:
+        if added and folder in sys.path:
+            sys.path.remove(folder)
     return module
 
 

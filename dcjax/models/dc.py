@@ -94,10 +94,11 @@ def vector_field(k: Coefficients, u, i, w):
     return di, dw
 
 
-def derivatives(p, u, i, w):
-    """Eq. 8 and 9 written exactly as in the paper (reference form, not the hot path)."""
-    di = (u - i * p.Ra - p.cm * w) / p.La
-    dw = (p.cm * i - (p.Tla + p.Tlb * w + p.Tlc * w**2)) / p.J
+def derivatives(p: Mapping, u, i, w):
+    """Eq. 8 and 9 written exactly as in the paper (reference form, not the hot path); `p` a
+    name -> value mapping."""
+    di = (u - i * p["Ra"] - p["cm"] * w) / p["La"]
+    dw = (p["cm"] * i - (p["Tla"] + p["Tlb"] * w + p["Tlc"] * w**2)) / p["J"]
     return di, dw
 
 

@@ -2,10 +2,13 @@
 model's parameters (issue 28): a fitted initial state, additive sensor offsets on measured
 channels and fractional delays of inputs.
 
-A delay d (seconds) of input u replaces u(t) by u(t - d), read from the samples by linear
-interpolation (eq. 29's interpolation, on the sample grid) and held at its first value before
-the recording starts; the delayed samples are then interpolated within each interval as usual.
-An offset o_c is added to the simulated channel before the comparison: y_c + o_c - y*_c."""
+A delay d (seconds) of input u replaces u(t) by u(t - d), the same eq. 29 interpolation of the
+samples shifted in time (held at its first sample before the recording starts). The delayed
+input is linear between its own knots t_j + d, which fall inside the sample intervals: an ODE
+model's interval is split at those knots (`input_pieces`), so every piece has a linear input and
+the integration is as exact as on an undelayed interval. A discrete-time model reads its inputs
+at the sample instants only: u(t_k - d) there. An offset o_c is added to the simulated channel
+before the comparison: y_c + o_c - y*_c."""
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -16,11 +19,13 @@ from .problem import Problem
 
 class Adjustments(eqx.Module):
     """`y0`: (*batch, S) the whole initial state (None: the problem's); `offset`: (*batch, C) per
-    measured channel (None: none); `delay`: (*batch, M) seconds per input (None: none)."""
+    measured channel (None: none); `delay`: (*batch, M) seconds per input (None: none), of which
+    the inputs `delayed` (static; empty: every input) may be non-zero."""
 
     y0: Float[Array, "*batch s"] | None = None
     offset: Float[Array, "*batch c"] | None = None
     delay: Float[Array, "*batch m"] | None = None
+    delayed: tuple[int, ...] = eqx.field(static=True, default=())
 
 
 def sample_times(problem: Problem) -> Float[Array, " n"]:
@@ -28,26 +33,53 @@ def sample_times(problem: Problem) -> Float[Array, " n"]:
     return jnp.concatenate([jnp.zeros(1), jnp.cumsum(problem.h)])
 
 
-def delayed_inputs(problem: Problem, delay: Float[Array, "*batch m"]):
-    """(u_start, u_end) as tuples over the inputs, each (n-1, *batch): input j delayed by
-    `delay[..., j]` seconds (module docstring)."""
-    t = sample_times(problem)
-    u = jnp.concatenate([problem.u_start, problem.u_end[-1:]], axis=0)  # (n, m)
-    starts, ends = [], []
-    for j in range(u.shape[1]):
-        d = delay[..., j]
-        q = t - d[..., None]  # (*batch, n)
-        ud = jnp.interp(q, t, u[:, j])
-        ud = jnp.moveaxis(ud, -1, 0)  # (n, *batch)
-        starts.append(ud[:-1])
-        ends.append(ud[1:])
-    return tuple(starts), tuple(ends)
+def _samples(problem: Problem) -> Float[Array, "n m"]:
+    return jnp.concatenate([problem.u_start, problem.u_end[-1:]], axis=0)
 
 
-def step_input_columns(problem: Problem, delay: Float[Array, "*batch m"] | None = None):
-    """(u_start, u_end) as tuples over the inputs: delayed by `delay` where given, else the
-    problem's own columns."""
-    if delay is not None:
-        return delayed_inputs(problem, delay)
+def _batch_last(a):
+    """(*batch, n) -> (n, *batch)."""
+    return jnp.moveaxis(a, -1, 0)
+
+
+def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
+    """Each sample interval as pieces with a linear input: `(lengths, inputs)`, `lengths` (n-1,
+    *batch, K) and `inputs` a tuple over the model's inputs of (n-1, *batch, K+1) values at the
+    pieces' ends.
+
+    Without a delay one piece, the interval and its samples (eq. 29). With delays (an ODE model)
+    the interval [t_{k-1}, t_k] is split at the knots t_j + d of every delayed input that fall
+    inside it (`Problem.knots` per input; a slot without a knot has length 0), and each input is
+    read as u(tau - d) at the pieces' ends. A discrete-time model: one piece, its inputs read at
+    t_{k-1} - d and t_k - d."""
+    from ..models.base import DiscreteModel
+
     m = problem.u_start.shape[1]
-    return tuple(problem.u_start[:, j] for j in range(m)), tuple(problem.u_end[:, j] for j in range(m))
+    delay = None if adjustments is None else adjustments.delay
+    if delay is None:
+        return problem.h[:, None], tuple(jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1) for j in range(m))
+    t, u = sample_times(problem), _samples(problem)
+    batch = delay.shape[:-1]
+    if isinstance(problem.model, DiscreteModel):
+        read = [_batch_last(jnp.interp(t - delay[..., j, None], t, u[:, j])) for j in range(m)]  # (n, *batch)
+        h = jnp.broadcast_to(problem.h.reshape((-1,) + (1,) * len(batch)), (problem.h.shape[0], *batch))
+        return h[..., None], tuple(jnp.stack([r[:-1], r[1:]], axis=-1) for r in read)
+    delayed = adjustments.delayed or tuple(range(m))  # pyright: ignore[reportOptionalMemberAccess]
+    start = t[:-1].reshape((-1,) + (1,) * len(batch))  # (n-1, 1...)
+    end = t[1:].reshape((-1,) + (1,) * len(batch))
+    knots = []
+    for j in delayed:
+        d = delay[..., j]  # (*batch)
+        first = jnp.searchsorted(t, start - d, side="right")  # the first sample whose delayed knot lies after the start
+        for s in range(problem.knots):
+            i = first + s
+            at = jnp.where(i < t.shape[0], t[jnp.minimum(i, t.shape[0] - 1)] + d, jnp.inf)
+            knots.append(jnp.clip(at, start, end))
+    inner = jnp.sort(jnp.stack(knots, axis=-1), axis=-1)  # (n-1, *batch, K-1)
+    ends = jnp.concatenate([jnp.broadcast_to(start, inner.shape[:-1])[..., None], inner,
+                            jnp.broadcast_to(end, inner.shape[:-1])[..., None]], axis=-1)  # fmt: skip
+    inputs = []
+    for j in range(m):
+        d = delay[..., j].reshape((1, *batch, 1))
+        inputs.append(jnp.interp(ends - d, t, u[:, j]))
+    return jnp.diff(ends, axis=-1), tuple(inputs)

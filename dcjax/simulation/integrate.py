@@ -7,7 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ..models.base import DiscreteModel
-from .adjustments import step_input_columns
+from .adjustments import input_pieces
 from .integrators import Integrator
 from .problem import Problem
 
@@ -43,6 +43,14 @@ def advance_with(model, integrator: Integrator, limit, c, y: State, h, ua: State
         return model.clamp(integrator.step(field, y, u0, u1, hs), limit)
 
     return jax.lax.fori_loop(0, nd, sub, y)
+
+
+def advance_pieces(c, problem: Problem, y: State, lengths, inputs) -> State:
+    """One sample interval as its pieces (`dcjax.simulation.adjustments.input_pieces`): each
+    piece `advance`d with its own linear input."""
+    for p in range(lengths.shape[-1]):
+        y = advance(c, problem, y, lengths[..., p], tuple(u[..., p] for u in inputs), tuple(u[..., p + 1] for u in inputs))
+    return y
 
 
 def prepare(params, problem: Problem):
@@ -87,14 +95,12 @@ def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*
     if adjustments is not None and (adjustments.y0 is not None or adjustments.delay is not None):
         batch = jnp.shape(problem.model.as_array(params))[:-1]
         y = initial_state(problem, batch, adjustments.y0)
-        u_start, u_end = step_input_columns(problem, adjustments.delay)
 
         def body_adjusted(y, xs):
-            h, ua, ub = xs
-            y = advance(c, problem, y, h, ua, ub)
+            y = advance_pieces(c, problem, y, *xs)
             return y, jnp.stack(y, axis=-1)
 
-        _, ys = jax.lax.scan(body_adjusted, y, (problem.h, u_start, u_end), unroll=problem.unroll)
+        _, ys = jax.lax.scan(body_adjusted, y, input_pieces(problem, adjustments), unroll=problem.unroll)
     else:
         _, ys = jax.lax.scan(body, y, step_inputs(problem), unroll=problem.unroll)
     out = jnp.concatenate([jnp.stack(y, axis=-1)[None], ys], axis=0)  # (N, *batch, S)

@@ -84,7 +84,7 @@ class Layout(eqx.Module):
         if self.delay_inputs:
             delay = jnp.zeros((*x.shape[:-1], problem.u_start.shape[1]), x.dtype)
             delay = delay.at[..., np.asarray(self.delay_inputs)].set(x[..., np.asarray(self.delay_cols[r])])
-        return Adjustments(y0 if self.y0_states or self.measured_start else None, offset, delay)
+        return Adjustments(y0 if self.y0_states or self.measured_start else None, offset, delay, self.delay_inputs)
 
 
 PAD_SHARE = 1.25  # pad a group's shorter recordings where that adds at most 25 % samples
@@ -176,28 +176,35 @@ class JointProblem(eqx.Module):
             groups += [tuple(g) for g in by_length.values()]
         return groups
 
-    def _stacked(self, x, group: tuple[int, ...]) -> Array:
-        """(len(group), *batch): the group's OFs from one vmapped objective over its stacked problems."""
+    def _stacked(self, x, group: tuple[int, ...], fn=None) -> Array:
+        """(len(group), *batch, ...): `fn` (the objective, or the residuals) of the group's
+        recordings from one vmapped call over their stacked (padded) problems."""
         lay = self.layout
         probs = [self.problems[r] for r in group]
         n = max(p.n for p in probs)
         if any(p.n != n for p in probs):
             probs = [padded(p, n) for p in probs]
         stacked = jax.tree.map(lambda *a: jnp.stack(a), *probs)
-        xm = x if lay.shared else jnp.stack([lay.model_x(x, r) for r in group])
+        xm = lay.model_x(x, group[0]) if lay.shared else jnp.stack([lay.model_x(x, r) for r in group])
         adj = None if not lay.adjusted else jax.tree.map(lambda *a: jnp.stack(a), *[self.adjustments(x, r) for r in group])
-        return jax.vmap(objective, in_axes=(None if lay.shared else 0, 0, 0 if adj is not None else None))(xm, stacked, adj)
+        fn = objective if fn is None else fn
+        return jax.vmap(fn, in_axes=(None if lay.shared else 0, 0, 0 if adj is not None else None))(xm, stacked, adj)
 
     def residuals(self, x: Float[Array, " D"]) -> Float[Array, " m"]:
-        """Every recording's residuals (`dcjax.residuals`), each scaled by sqrt(its weight): sum r^2
-        is `objective(x)`."""
-        lay = self.layout
-        return jnp.concatenate(
-            [
-                jnp.sqrt(w) * residuals(lay.model_x(x, r), p, self.adjustments(x, r))
-                for r, (w, p) in enumerate(zip(self.weights, self.problems))
-            ]
-        )
+        """Every recording's residuals (`dcjax.residuals`, in recording order), each scaled by
+        sqrt(its weight): sum r^2 is `objective(x)`. Recordings of one group are evaluated by one
+        vmapped call, as in `objective` (a padded recording's extra samples are left out)."""
+        out: list = [None] * len(self.problems)
+        for group in self.groups():
+            if len(group) == 1:
+                r = group[0]
+                out[r] = residuals(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
+                continue
+            stacked = self._stacked(x, group, residuals)  # (len(group), C * n_max)
+            for k, r in enumerate(group):
+                n, c = self.problems[r].n, self.problems[r].y_meas.shape[1]
+                out[r] = stacked[k].reshape(c, -1)[:, :n].reshape(-1)
+        return jnp.concatenate([jnp.sqrt(w) * o for w, o in zip(self.weights, out)])
 
     def simulate(self, x: Float[Array, " D"], r: int = 0):
         """Recording r's states at its samples, with its parameters and adjustments."""

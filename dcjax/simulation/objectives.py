@@ -4,8 +4,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .adjustments import Adjustments, step_input_columns
-from .integrate import advance, initial_state, prepare, simulate_scan, split_inputs, step_inputs
+from .adjustments import Adjustments, input_pieces
+from .integrate import advance, advance_pieces, initial_state, prepare, simulate_scan, split_inputs, step_inputs
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
 from .losses import SSE
 from .problem import Problem, make_problem
@@ -104,7 +104,6 @@ def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
     c, _ = prepare(x, problem)
     adj = adjustments if adjustments is not None else Adjustments()
     y = initial_state(problem, x.shape[:-1], adj.y0)
-    u_start, u_end = step_input_columns(problem, adj.delay)
     outs, loss = problem.model.output_index, problem.loss
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
     offset = [None if adj.offset is None else adj.offset[..., j] for j in range(len(outs))]
@@ -120,12 +119,12 @@ def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
 
     def body(carry, xs):
         y, acc = carry
-        h, ua, ub, meas, weight = xs
-        y = advance(c, problem, y, h, ua, ub)
+        lengths, inputs, meas, weight = xs
+        y = advance_pieces(c, problem, y, lengths, inputs)
         return (y, misfit(acc, y, meas, weight)), None
 
     acc = misfit(0.0, y, problem.y_meas[0], None)
-    xs = (problem.h, u_start, u_end, problem.y_meas[1:], None if mask is None else mask[1:])
+    xs = (*input_pieces(problem, adj), problem.y_meas[1:], None if mask is None else mask[1:])
     (_, acc), _ = jax.lax.scan(body, (y, acc), xs, unroll=problem.unroll)
     return acc
 

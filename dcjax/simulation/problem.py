@@ -33,6 +33,7 @@ class Problem(eqx.Module):
     loss: Loss = SSE()
     mask: Float[Array, " n"] | None = None  # 1 for a recorded sample, 0 for padding (`dcjax.simulation.joint.padded`)
     unroll: int = eqx.field(static=True, default=1)
+    knots: int = eqx.field(static=True, default=1)  # most knots of a delayed input inside one interval (`knots_per_interval`)
 
     @property
     def n(self) -> int:
@@ -40,6 +41,15 @@ class Problem(eqx.Module):
 
     def measured(self, channel: str) -> Float[Array, " n"]:
         return self.y_meas[:, self.model.outputs.index(channel)]
+
+
+def knots_per_interval(t: np.ndarray) -> int:
+    """The most sample instants in an open window as long as the longest sample interval: the
+    most knots of a delayed input that can fall inside one interval (1 on a uniform grid;
+    `dcjax.simulation.adjustments.input_pieces`)."""
+    t = np.asarray(t, float)
+    span = float(np.max(np.diff(t))) * (1.0 - 1e-9)
+    return int(np.max(np.searchsorted(t, t + span, side="left") - np.arange(len(t))))
 
 
 def check_positive_int(name: str, v) -> None:
@@ -138,6 +148,7 @@ def make_problem(
         unroll=int(unroll),
         norm=None if type(loss) is SSE else f64(1.0 / peak if loss.normalize == "peak" else np.ones_like(peak)),
         loss=loss,
+        knots=knots_per_interval(t),
     )
 
 

@@ -172,13 +172,15 @@ def greedy(pop, fit, trial, trial_fit) -> tuple[Array, Array, Bool[Array, " P"]]
 
 class Strategy(eqx.Module):
     """Interface: `init(key, fn, budget, dim, x0) -> State`, `step(key, state, fn, budget) -> State`.
-    `dim` is the number of searched (free) parameters; `x0` optional start values (K, dim) in
+    `pop_size` members; a run stops at its FE budget or after `generations` iterations (default:
+    as many as the budget buys without memory, paper Section 4.4). `dim` is the number of searched (free) parameters; `x0` optional start values (K, dim) in
     the unit cube that replace the first K members of the initial population.
 
     `cost` is the most evaluations one step can spend when it must run whole (GA); strategies
     that mask evaluations past the budget set it to 1 and stop exactly at the budget."""
 
     pop_size: int = eqx.field(static=True, default=70)
+    generations: int | None = eqx.field(static=True, default=None)  # at most this many iterations a run (None: as the budget buys)
     traced: ClassVar[tuple[str, ...]] = ()  # float hyperparameters passed to the executable as values
 
     @property
@@ -239,9 +241,10 @@ class RunCarry(eqx.Module):
 
 
 def iteration_limit(strategy: Strategy, budget: int, generations: int | None = None) -> int:
-    """The most iterations a run makes (see `run`): `generations`, else the memory-free run's
+    """The most iterations a run makes (see `run`): `generations` (default the strategy's), else the memory-free run's
     count for the budget, with or without memory (paper Section 4.4: 2000 iterations either way;
     a duplicate saves its simulation, it does not buy more iterations)."""
+    generations = strategy.generations if generations is None else generations
     if generations is not None:
         return int(generations)
     return max(1, strategy.max_iterations(budget))
@@ -350,6 +353,30 @@ def run_batch(
 
     _, carry = jax.lax.while_loop(lambda loop: jnp.any(active(loop[1])), body, (jnp.asarray(0), carry))
     return jax.vmap(run_output)(carry)
+
+
+class BatchProgram(eqx.Module):
+    """What the compiled runs of a strategy are built from, derived once: the strategy, its
+    budget, iteration limit (`iteration_limit`), traced hyperparameters (`hyperparameters`: an
+    argument of the executable, so a sweep over them reuses it) and the key of what is compiled
+    in (`structure_key`). `run` is `run_batch` with the hyperparameters given."""
+
+    strategy: Strategy = eqx.field(static=True)
+    budget: int = eqx.field(static=True)
+    t_max: int = eqx.field(static=True)
+    key: str = eqx.field(static=True)
+    hyper: dict
+
+    def run(self, hyper: dict[str, Array], keys: PRNGKeyArray, fn: FitnessFn, dim: int, memory=None, precision=None, x0=None,
+            report: Callable | None = None, chunks: int = 20) -> RunOutput:  # fmt: skip
+        """`run_batch` of the strategy with `hyper` (traced), reporting about `chunks` times."""
+        return run_batch(with_hyperparameters(self.strategy, hyper), keys, fn, self.budget, dim, memory, precision, None, x0,
+                         report=report, report_every=max(1, -(-self.t_max // chunks)))  # fmt: skip
+
+
+def batch_program(strategy: Strategy, budget: int) -> BatchProgram:
+    """The `BatchProgram` of `strategy` at `budget` FEs a run."""
+    return BatchProgram(strategy, budget, iteration_limit(strategy, budget), structure_key(strategy), hyperparameters(strategy))
 
 
 def run_output(carry: RunCarry) -> RunOutput:

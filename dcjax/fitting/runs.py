@@ -1,0 +1,217 @@
+"""The compiled runs: every run of every setup of a call, one compiled executable per group of
+setups of equal structure (`run_setups`). One fit, a joint fit and a batch of recordings
+(`fit_each`) take the same path:
+
+- a group of one setup (a fit, a joint fit) runs its `runs` as one vmapped batch, split over
+  the devices along the runs (`shard_map`);
+- a group of several single-recording setups of one structure (length, channels, limit, free
+  parameters, layout) is stacked into one batched target and space (each recording keeps its
+  own bounds, start values and precisions) and `vmap`ped over the recordings; several runs are
+  split over the devices along the runs, one run of many recordings along the recordings.
+
+Run r is keyed by `fold_in(PRNGKey(seed), r)` for every recording alike, so a recording gets
+the same result in a batch as alone, and a run does not depend on how many others are made or
+on the device count. Data are arguments, not constants: recordings of equal structure reuse one
+executable (`EXECUTABLES`). With `progress` each device reports its runs' fractions done
+`PROGRESS_CHUNKS` times (`jax.debug.callback`, the same results)."""
+
+import itertools
+import time
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import PartitionSpec
+
+from ..models.space import Space
+from ..simulation.joint import JointProblem
+from ..simulation.kernel import kernel_mode
+from ..strategies.base import BatchProgram, FitnessFn, batch_program
+from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
+from .setup import Search, Setup
+
+# The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
+# (other weights, bounds or recordings of equal length) reuse them.
+EXECUTABLES = ExecutableCache(size=6)
+PROGRESS_CHUNKS = 20
+
+
+def fitness(space: Space, target: JointProblem) -> FitnessFn:
+    """The population OF of unit-cube points: the (joint-weighted) eq. 24/27 of every recording
+    (or the fit's loss), with each recording's parameters and adjustments (`JointProblem`)."""
+
+    def of(z):
+        return target.objective(space.to_physical(z))
+
+    return of  # pyright: ignore[reportReturnType]
+
+
+def _tqdm_progress(total: int):
+    """A callback that moves a tqdm bar (on stderr) to `fraction * total`; `None` closes it."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, unit="it", desc="iterations (all runs)", leave=False, dynamic_ncols=True)
+
+    def report(fraction):
+        if fraction is None:
+            bar.close()
+            return
+        bar.update(int(round(fraction * total)) - bar.n)
+
+    return report
+
+
+class ProgressMeter:
+    """One call's progress: the compiled runs report each device's runs' fractions done, per
+    setup of the batch (a `jax.debug.callback`, once per device, setup and chunk, outside the
+    vmap over runs, in any order), and the meter calls `target` with the fraction of all runs done."""
+
+    def __init__(self, target: Callable[[float], object], total: int):
+        self.target, self.total = target, total
+        self.done: dict[tuple[int, int], np.ndarray] = {}
+
+    def report(self, device, member, done) -> None:
+        key = (int(device), int(member))
+        old = self.done.get(key)  # unordered callbacks: keep the furthest state seen of every run
+        self.done[key] = np.asarray(done) if old is None else np.maximum(old, done)
+        self.target(float(sum(np.sum(d) for d in self.done.values()) / self.total))  # runs not heard from: not started
+
+
+_TOKENS = itertools.count(1)
+_METERS: dict[int, ProgressMeter] = {}  # the meters of the calls running now, by the token each passes its executable
+
+
+def _report(token, device, member, done) -> None:
+    meter = _METERS.get(int(token))
+    if meter is not None:
+        meter.report(device, member, done)
+
+
+def compile_key(search: Search, program: BatchProgram) -> tuple:
+    """What of a search an executable is compiled for (the traced hyperparameters are arguments)."""
+    return (program.key, search.budget, search.memory, search.generations)
+
+
+def group_key(setup: Setup) -> tuple:
+    """Setups with the same key share one compiled call: the structure and shapes of their
+    targets and spaces, their free parameters and integrator (a joint fit's setup is its own)."""
+    if len(setup.recordings) != 1:
+        return ("joint", id(setup))
+    return (leaf_signature((setup.target, setup.space)), setup.space.free, repr(setup.integrator))
+
+
+def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool, batched: bool, axis: str):
+    """All runs as one function of (keys, target, space, precision, x0, hyperparameters, token,
+    member): one setup's (`batched` False) or a stack of setups' (vmapped over the leading axis
+    of the target, space, precision, x0 and member index). On several devices each device runs
+    its share along `axis` ("runs" or "recordings")."""
+
+    def device_runs(keys, target, space, prec, x0, hyper, token, member):
+        report = None
+        if progress:
+            device = jax.lax.axis_index(axis) if mesh is not None else 0
+            report = lambda done: jax.debug.callback(_report, token, device, member, done)
+        return program.run(hyper, keys, fitness(space, target), dim, memory, prec, x0, report, PROGRESS_CHUNKS)
+
+    fn = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0, None, None, 0)) if batched else device_runs
+    if mesh is not None:
+        rep, split = PartitionSpec(), PartitionSpec(axis)
+        if axis == "runs":
+            specs, out = (split, *[rep] * 7), PartitionSpec(None, "runs") if batched else split
+        else:
+            specs, out = (rep, split, split, split, split, rep, rep, split), split
+        fn = jax.shard_map(fn, mesh=mesh, in_specs=specs, out_specs=out, check_vma=False)
+    return jax.jit(fn)
+
+
+def _stack(trees):
+    return jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *trees)
+
+
+def _group_args(setups: list[Setup], search: Search, pad: int):
+    """(target, space, precision, x0, member) of a group: one setup's as they are, several stacked
+    (start rows padded with NaN to the most any setup has), `pad` copies of the last appended."""
+    prec = None if search.memory is None else [s.precision() for s in setups]
+    if len(setups) == 1 and pad == 0:
+        s = setups[0]
+        return s.target, s.space, None if prec is None else jnp.asarray(prec[0]), None if s.starts is None else jnp.asarray(s.starts), 0
+    dim = setups[0].space.dim
+    k_max = max((s.starts.shape[0] for s in setups if s.starts is not None), default=0)
+    z0 = None if k_max == 0 else np.stack([np.full((k_max, dim), np.nan) if s.starts is None else
+                                           np.pad(s.starts, ((0, k_max - s.starts.shape[0]), (0, 0)), constant_values=np.nan)
+                                           for s in setups])  # fmt: skip
+    more = lambda items: items + [items[-1]] * pad
+    return (_stack(more([s.target for s in setups])), _stack(more([s.space for s in setups])),
+            None if prec is None else np.stack(more(prec)), None if z0 is None else np.concatenate([z0] + [z0[-1:]] * pad),
+            np.arange(len(setups) + pad))  # fmt: skip
+
+
+def run_group(setups: list[Setup], search: Search, program: BatchProgram, report: Callable[[float], object] | None = None) -> list[tuple]:
+    """The runs of a group of setups of one `group_key` in one compiled call: per setup its runs'
+    outputs (`RunOutput`, padding dropped) and the timing. `report`: called with the fraction done."""
+    runs, n = search.runs, len(setups)
+    batched = n > 1
+    axis = "recordings" if runs == 1 and batched else "runs"  # one run of many recordings: split the recordings
+    devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
+    mesh = mesh_of(devices, axis)
+    pad = padded_size(n, devices) - n if axis == "recordings" else 0
+    target, space, prec, z0, member = _group_args(setups, search, pad)
+    if axis == "recordings":
+        keys = replicate(fold_keys(search.seed, runs), mesh)
+        target, space, prec, z0, member = (jax.tree.map(lambda a: shard(a, mesh, axis), b) for b in (target, space, prec, z0, member))
+    else:
+        keys = shard(fold_keys(search.seed, padded_size(runs, devices)), mesh, axis)
+        if batched:
+            target, space, prec, z0, member = (jax.tree.map(lambda a: replicate(a, mesh), b) for b in (target, space, prec, z0, member))
+    token = next(_TOKENS)
+    args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
+    show = report is not None
+    weights = setups[0].target.weights, setups[0].target.layout
+    cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show)
+    t0 = time.perf_counter()
+    build = lambda: _compiled_runs(program, search.memory, mesh, setups[0].space.dim, show, batched, axis)
+    compiled, reused = EXECUTABLES.get(cache_key, build, args)
+    t1 = time.perf_counter()
+    if report is not None:
+        _METERS[token] = ProgressMeter(report, (n + pad) * int(keys.shape[0]))
+    try:
+        outs = jax.block_until_ready(compiled(*args))
+        jax.effects_barrier()
+    finally:
+        _METERS.pop(token, None)
+    t2 = time.perf_counter()
+    outs = jax.tree.map(to_host, outs)
+    timing = {"compile_s": t1 - t0, "run_s": (t2 - t1) / n, "devices": len(devices), "reused_executable": reused}
+    if batched:
+        timing |= {"batch": n, "batch_run_s": t2 - t1}
+        return [(jax.tree.map(lambda a, b=b: a[b, :runs], outs), timing) for b in range(n)]
+    return [(jax.tree.map(lambda a: a[:runs], outs), timing)]
+
+
+def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple]:
+    """Every setup's runs (`run_group`), the setups of one `group_key` in one compiled call: per
+    setup, in order, its runs' outputs and the timing."""
+    groups: dict = {}
+    for k, s in enumerate(setups):
+        groups.setdefault(group_key(s), []).append(k)
+    out: list = [None] * len(setups)
+    show = progress is not None and progress is not False
+    program = batch_program(search.strategy, search.budget)
+    total = search.runs * len(setups) * program.t_max
+    overall = (progress if callable(progress) else _tqdm_progress(total)) if show else None
+    done = 0
+    try:
+        for members in groups.values():
+            share = len(members) / len(setups)
+            base = done / len(setups)
+            report = None if overall is None else lambda f, base=base, share=share: overall(base + share * f)
+            for k, res in zip(members, run_group([setups[k] for k in members], search, program, report)):
+                out[k] = res
+            done += len(members)
+            if report is not None:
+                report(1.0)
+    finally:
+        if show and not callable(progress):
+            overall(None)  # pyright: ignore[reportOptionalCall]
+    return out

@@ -1,0 +1,247 @@
+"""What a fit is, before anything is compiled: a `Plan` (the model, the integrator, the `Search`
+and the `Observation`, resolved and checked once at the boundary, shared by every recording of
+a fit or a batch) and a `Setup` per fit (its recordings, the search vector's `Parameters`, the
+problems, the search space, start rows, weights and data-check findings)."""
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from ..io.recording import Recording
+from ..models import Model, get_model
+from ..models.base import DiscreteModel
+from ..models.bounds import Bounds
+from ..models.parameters import Parameters
+from ..models.precision import physical_precision
+from ..models.space import Space, vector_space
+from ..simulation.integrators import AutoSubsteps, Integrator, integrator_for
+from ..simulation.joint import JointProblem, Layout
+from ..simulation.problem import Problem, check_positive_int, make_problem
+from ..strategies import METHODS, Strategy, make_strategy
+from ..strategies.memory import MemoryAssistance
+from .observation import Observation
+from .vector import base_name, resolve_parameters, search_vector, split_parameters, start_rows
+
+
+@dataclasses.dataclass(frozen=True)
+class Search:
+    """How a fit searches: `runs` independent runs of `strategy` of at most `budget` FEs each (and
+    at most `strategy.generations` iterations), keyed from `seed`, with an optional `memory` and
+    Levenberg–Marquardt `polish`."""
+
+    strategy: Strategy
+    memory: MemoryAssistance | None = None
+    runs: int = 50
+    budget: int = 140_000
+    seed: int = 0
+    polish: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.strategy, Strategy):
+            raise ValueError(f"method must be a strategy name or a dcjax Strategy, got {self.strategy!r}")
+        for name in ("runs", "budget"):
+            check_positive_int(name, getattr(self, name))
+        check_positive_int("pop_size", self.strategy.pop_size)
+        if self.strategy.generations is not None:
+            check_positive_int("generations", self.strategy.generations)
+        if self.budget < self.strategy.pop_size:
+            raise ValueError(f"budget ({self.budget}) must be at least one population ({self.strategy.pop_size})")
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool):
+            raise ValueError(f"seed must be an integer, got {self.seed!r}")
+        if self.memory is not None and not isinstance(self.memory, MemoryAssistance):
+            raise ValueError(f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {self.memory!r}")
+        if not isinstance(self.polish, (bool, np.bool_)):
+            raise ValueError(f"polish must be True or False, got {self.polish!r}")
+
+    @property
+    def generations(self) -> int | None:
+        return self.strategy.generations
+
+    @property
+    def method(self) -> str:
+        """The strategy's name: a built-in's registry name, an evosax algorithm's, else the class name."""
+        s = self.strategy
+        for name, cls in METHODS.items():
+            if type(s) is cls:
+                return name
+        return str(getattr(s, "name", "")) or type(s).__name__
+
+
+# -- what belongs to the recordings ----------------------------------------------------------------
+def with_weights(recording: Recording, weights: Mapping[str, float] | None = None, joint_weight: float | None = None) -> Recording:
+    """The recording with its objective weights: `weights` per measured channel (eq. 27's w1, w2;
+    default all 1, eq. 24) and, in a joint fit, its `joint_weight` (default equal shares)."""
+    meta = dict(recording.metadata)
+    if weights is not None:
+        meta["weights"] = {str(k): float(v) for k, v in weights.items()}
+    if joint_weight is not None:
+        meta["joint_weight"] = float(joint_weight)
+    return recording.replace(metadata=meta)
+
+
+def channel_weights(recordings: list[Recording], model: Model) -> tuple[float, ...] | None:
+    """The channel weights the recordings carry (`with_weights`), in the model's output order."""
+    given = [r.metadata.get("weights") for r in recordings]
+    if all(g is None for g in given):
+        return None
+    if any(g != given[0] for g in given):
+        raise ValueError("the recordings of a joint fit must carry the same channel weights")
+    w = dict(given[0])  # pyright: ignore[reportArgumentType]
+    bad = [c for c in w if c not in model.outputs]
+    if bad:
+        raise ValueError(f"weights: unknown channel(s) {bad}; model {model.name} compares {', '.join(model.outputs)}")
+    return tuple(float(w.get(c, 1.0)) for c in model.outputs)
+
+
+def joint_weights(recordings: list[Recording], pooled: bool = False) -> list[float]:
+    """Each recording's share of a joint fit's OF: its `joint_weight`, default equal shares, or
+    (`pooled`, a loss without normalisation) its share of all samples, so the recordings' means
+    pool into one mean over every sample."""
+    jw = [r.metadata.get("joint_weight") for r in recordings]
+    if all(w is None for w in jw):
+        if pooled and len(recordings) > 1:
+            total = sum(len(r) for r in recordings)
+            return [len(r) / total for r in recordings]
+        return [1.0 / len(recordings)] * len(recordings)
+    out = [1.0 if w is None else float(w) for w in jw]
+    if any(not w >= 0 for w in out) or sum(out) <= 0:
+        raise ValueError("joint weights must be non-negative and not all zero")
+    return out
+
+
+# -- one fit's setup -----------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Setup:
+    """One fit, prepared: the recordings (one, or a joint set), the model, the resolved
+    `Parameters` of the search vector and the integrator, and what the compiled runs take
+    (problems, space, start rows, joint weights); the data checks' `findings`."""
+
+    recordings: list[Recording]
+    model: Model
+    params: Parameters  # of the search vector (`dcjax.fitting.vector`)
+    integrator: Integrator
+    problems: list[Problem]
+    space: Space
+    starts: np.ndarray | None  # (K, D) unit cube, NaN where not given
+    joint_weights: list[float]
+    weights: tuple[float, ...] | None  # channel weights (None: all 1)
+    observation: Observation = dataclasses.field(default_factory=Observation)
+    layout: Layout | None = None  # None: the model's parameters, shared
+    findings: tuple = ()  # data-check findings of the recordings (`dcjax.analysis.checks.Finding`)
+
+    @property
+    def target(self) -> JointProblem:
+        """The objective over the search vector (every recording, its weight, the layout)."""
+        layout = self.layout or Layout.plain(self.model.names, len(self.problems))
+        return JointProblem(tuple(self.problems), tuple(float(w) for w in self.joint_weights), layout)
+
+    def physical_precision(self) -> list[float]:
+        """The memory precision of every entry of the search vector: a model parameter's (given,
+        else the model's; Table 29 for the paper's), 1e-6 of the range for the observation's."""
+        given = {base_name(n): p.precision for n, p in self.params.items() if p.precision is not None and base_name(n) in self.model.names}
+        model_prec = dict(zip(self.model.names, physical_precision(given or None, self.model)))
+        lo, hi = self.params.lower, self.params.upper
+        out = []
+        for k, (n, p) in enumerate(self.params.items()):
+            b = base_name(n)
+            out.append(float(model_prec[b]) if b in model_prec else p.precision if p.precision is not None else 1e-6 * float(hi[k] - lo[k]))
+        return out
+
+    def precision(self) -> np.ndarray:
+        """The memory precisions of the free parameters in the unit cube."""
+        p = np.asarray(self.physical_precision())
+        if not np.all(p >= 0) or np.any(np.isnan(p)):
+            raise ValueError(f"precision needs non-negative numbers, got {p!r}")
+        return self.space.free_of(p) / np.asarray(self.space.upper - self.space.lower)
+
+    def with_integrator(self, integrator: Integrator) -> "Setup":
+        """The same fit simulated with another integrator (other sub-steps)."""
+        return dataclasses.replace(self, integrator=integrator, problems=problems_of(self.recordings, self.model, integrator,
+                                                                                    self.weights, self.observation))  # fmt: skip
+
+
+def problems_of(recordings, model: Model, integrator: Integrator, weights, observation: Observation) -> list[Problem]:
+    """Each recording's `Problem` under the observation (its loss, the initial states not fitted)."""
+    return [make_problem(r, integrator, weights, model=model, loss=observation.loss, initial=observation.initial_values(model, r))
+            for r in recordings]  # fmt: skip
+
+
+# -- what every recording of a fit shares --------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Plan:
+    """A fit's model, integrator (or `AutoSubsteps`), `Search` and `Observation`, resolved and
+    checked together once (`plan`); `setup` prepares one fit of recordings with it."""
+
+    model: Model
+    integrator: Integrator | AutoSubsteps
+    search: Search
+    observation: Observation
+
+    def setup(self, recordings: Sequence[Recording], params, starts=None, findings=()) -> Setup:
+        """The `Setup` of a fit of `recordings`: `params` resolved (`resolve_parameters`: None, a
+        preset, "auto" or `Parameters`, which may hold the observation's parameters too), the
+        search vector (`dcjax.fitting.vector`), its space and the problems. A fixed parameter's
+        value may lie outside its range (a known value overrides it). `starts`: start rows in any
+        form `start_rows` takes, instead of the parameters' values."""
+        recordings, model, observation = list(recordings), self.model, self.observation
+        resolved = resolve_parameters(params, recordings, model)
+        own, extras = split_parameters(resolved, model)
+        local = [n for n, p in own.items() if p.local and not p.vary]
+        if local and len(recordings) > 1:
+            raise ValueError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
+        local_fit = len(recordings) > 1 and any(p.local for p in own.values())
+        if isinstance(self.integrator, AutoSubsteps) and (
+            local_fit or observation.fitted_states() or observation.offsets or observation.delays
+        ):
+            raise ValueError("nd auto: not with local parameters, fitted initial states, offsets or delays; give the sub-steps (--nd N)")
+        integrator = self.integrator.integrator if isinstance(self.integrator, AutoSubsteps) else self.integrator
+        layout, vec = search_vector(model, recordings, own, extras, observation)
+        fixed = vec.fixed
+        lo, hi = vec.lower.copy(), vec.upper.copy()
+        for k, n in enumerate(vec.names):
+            if n in fixed and not lo[k] <= fixed[n] <= hi[k]:
+                lo[k] = hi[k] = fixed[n]
+        space = vector_space(vec.names, Bounds(lo, hi, vec.names), fixed, f"model {model.name}")
+        weights = channel_weights(recordings, model)
+        problems = problems_of(recordings, model, integrator, weights, observation)
+        x0 = starts if starts is not None else (vec.start or None)
+        jw = joint_weights(recordings, pooled=observation.loss.normalize == "none")
+        trivial = layout == Layout.plain(model.names, len(recordings))
+        return Setup(recordings, model, vec, integrator, problems, space, start_rows(x0, model, space), jw, weights, observation,
+                     None if trivial else layout, tuple(findings))  # fmt: skip
+
+
+def plan(
+    model=None,
+    method: "str | Strategy" = "de-rand-1-exp",
+    *,
+    observation: Observation | None = None,
+    integrator: Integrator | AutoSubsteps | None = None,
+    runs: int = 50,
+    budget: int = 140_000,
+    seed: int = 0,
+    memory: MemoryAssistance | None = None,
+    polish: bool = False,
+) -> Plan:
+    """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others (one-line errors)."""
+    m = get_model(model)
+    if observation is None:
+        observation = Observation()
+    if not isinstance(observation, Observation):
+        raise ValueError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=), got {observation!r}")
+    observation.check(m)
+    search = Search(make_strategy(method) if not isinstance(method, Strategy) else method, memory, runs, budget, seed, polish)
+    if polish and not observation.loss.least_squares:
+        raise ValueError(
+            f"polish: Levenberg-Marquardt needs a least-squares loss (sse or huber); the {observation.loss.spec} loss has none"
+        )
+    if isinstance(m, DiscreteModel):
+        if isinstance(integrator, AutoSubsteps):
+            raise ValueError(f"model {m.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
+        return Plan(m, integrator_for(m, integrator), search, observation)
+    if integrator is not None and not isinstance(integrator, (Integrator, AutoSubsteps)):
+        raise ValueError(
+            f"integrator must be dcjax.Euler(...), dcjax.RK4(...), a dcjax.Integrator of your own or dcjax.AutoSubsteps(...), got {integrator!r}"
+        )
+    return Plan(m, integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator, search, observation)

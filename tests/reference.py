@@ -1,0 +1,131 @@
+"""An independent reference simulator for the tests: plain NumPy, no dcjax import.
+
+A model is a NumPy vector field `field(p, u, y) -> dy/dt` (or a discrete map `update(p, u, y, h)
+-> y_next`) written out here from its equations, not taken from dcjax. The inputs are the
+recorded samples read by the paper's eq. 29 interpolation (linear between samples, held at the
+first sample before the start) at every stage time, each input delayed by its own `d`:
+u_j(tau - d_j). The ODE is integrated with classic RK4 on `substeps` equal sub-steps per sample
+interval, fine enough that the result stands for the exact solution (`converged` checks that);
+a sensor offset is added to the reading, not to the state."""
+
+import numpy as np
+
+# -- the models' equations ---------------------------------------------------------------------
+
+
+def dc_field(p, u, y):
+    """The paper's eq. 8-9 as printed: (di/dt, dw/dt)."""
+    i, w = y[0], y[1]
+    di = (u[0] - p["Ra"] * i - p["cm"] * w) / p["La"]
+    dw = (p["cm"] * i - (p["Tla"] + p["Tlb"] * w + p["Tlc"] * w**2)) / p["J"]
+    return np.array([di, dw])
+
+
+def dc_encoder_field(p, u, y):
+    """Eq. 8-9 with the shaft angle: (di/dt, dw/dt, dtheta/dt = w)."""
+    return np.append(dc_field(p, u, y[:2]), y[1])
+
+
+def dc_euler_map(p, u, y, h):
+    """The paper's motor as its forward-Euler map over one sample interval (eq. 11-12)."""
+    return y + h * dc_field(p, u, y)
+
+
+def dc_encoder_euler_map(p, u, y, h):
+    return y + h * dc_encoder_field(p, u, y)
+
+
+def pmsm_field(p, u, y):
+    """A permanent-magnet synchronous motor in the rotor's dq frame, inputs (ud, uq, pole pairs):
+
+    Ld did/dt = ud - Rs id + pp w Lq iq
+    Lq diq/dt = uq - Rs iq - pp w (Ld id + psi)
+    J dw/dt   = 1.5 pp (psi iq + (Ld - Lq) id iq) - B w - Tl"""
+    i_d, i_q, w = y[0], y[1], y[2]
+    ud, uq, pp = u[0], u[1], u[2]
+    did = (ud - p["Rs"] * i_d + pp * w * p["Lq"] * i_q) / p["Ld"]
+    diq = (uq - p["Rs"] * i_q - pp * w * (p["Ld"] * i_d + p["psi"])) / p["Lq"]
+    dw = (1.5 * pp * (p["psi"] * i_q + (p["Ld"] - p["Lq"]) * i_d * i_q) - p["B"] * w - p["Tl"]) / p["J"]
+    return np.array([did, diq, dw])
+
+
+def pmsm_encoder_field(p, u, y):
+    return np.append(pmsm_field(p, u, y[:3]), y[2])
+
+
+# -- the simulation ------------------------------------------------------------------------------
+
+
+def input_at(t, u, tau, delays):
+    """Every input at time `tau`: input j read at tau - d_j by linear interpolation on the
+    samples (eq. 29), held at its first (last) sample before (after) the recording."""
+    return np.array([np.interp(tau - delays[j], t, u[:, j]) for j in range(u.shape[1])])
+
+
+def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limited=None):
+    """(N, S): the states at the sample instants `t`, RK4 over `substeps` equal sub-steps per
+    interval, the inputs `u` (N, M) read at every stage time as `input_at`. `limit`: |y[limited]|
+    clamped to it after every sub-step."""
+    t = np.asarray(t, float)
+    u = np.asarray(u, float).reshape(len(t), -1)
+    d = np.zeros(u.shape[1]) if delays is None else np.asarray(delays, float)
+    y = np.array(y0, float)
+    out = np.empty((len(t), len(y)))
+    out[0] = y
+    for k in range(1, len(t)):
+        hs = (t[k] - t[k - 1]) / substeps
+        for s in range(substeps):
+            tau = t[k - 1] + s * hs
+            ua, um, ub = (input_at(t, u, tau + a * hs, d) for a in (0.0, 0.5, 1.0))
+            k1 = field(p, ua, y)
+            k2 = field(p, um, y + 0.5 * hs * k1)
+            k3 = field(p, um, y + 0.5 * hs * k2)
+            k4 = field(p, ub, y + hs * k3)
+            y = y + hs / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            if limit is not None:
+                y[limited] = np.clip(y[limited], -limit, limit)
+        out[k] = y
+    return out
+
+
+def iterate(update, p, t, u, y0, *, delays=None):
+    """(N, S): a discrete-time model's map applied once per interval, y_k = update(p, u(t_{k-1} -
+    d), y_{k-1}, t_k - t_{k-1}), the inputs read at the interval's start as `input_at`."""
+    t = np.asarray(t, float)
+    u = np.asarray(u, float).reshape(len(t), -1)
+    d = np.zeros(u.shape[1]) if delays is None else np.asarray(delays, float)
+    out = np.empty((len(t), len(y0)))
+    out[0] = y = np.array(y0, float)
+    for k in range(1, len(t)):
+        y = update(p, input_at(t, u, t[k - 1], d), y, t[k] - t[k - 1])
+        out[k] = y
+    return out
+
+
+def settle(field, p, u0, y0, duration, steps=4000):
+    """The state after holding the inputs at `u0` for `duration` s (RK4, `steps` steps): a start
+    in steady motion."""
+    y = np.array(y0, float)
+    u0 = np.asarray(u0, float)
+    h = duration / steps
+    for _ in range(steps):
+        k1 = field(p, u0, y)
+        k2 = field(p, u0, y + 0.5 * h * k1)
+        k3 = field(p, u0, y + 0.5 * h * k2)
+        k4 = field(p, u0, y + h * k3)
+        y = y + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return y
+
+
+def converged(field, p, t, u, y0, substeps, **kw) -> float:
+    """The largest change of any state (relative to its peak) from `substeps` to 2x `substeps`:
+    how far the reference is from the exact solution."""
+    a = simulate(field, p, t, u, y0, substeps=substeps, **kw)
+    b = simulate(field, p, t, u, y0, substeps=2 * substeps, **kw)
+    return float(np.max(np.abs(a - b) / np.maximum(np.max(np.abs(b), axis=0), 1e-300)))
+
+
+def mean_squared_misfit(sim, meas):
+    """Eq. 24 from plain arrays: sum over channels of mean((sim - meas)^2) / max|meas|^2."""
+    sim, meas = np.asarray(sim, float), np.asarray(meas, float)
+    return float(np.sum(np.mean((sim - meas) ** 2, axis=0) / np.max(np.abs(meas), axis=0) ** 2))

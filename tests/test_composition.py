@@ -1,0 +1,154 @@
+"""The seven failures of features used together (issue 33), each now working or refused in one line:
+a joint fit with a per-recording extra, a delay that is u(t - d), validate/simulate on files in
+the model's own layout after a fit of a logger export, `design` of every input of a two-input
+model, `--trim` and `--limit` through the model, and a model file that imports its neighbour.
+The physics of (1) and (2) is checked on reference data in `tests/test_matrix.py`; here the
+paths a user takes."""
+
+import json
+import sys
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import reference as ref
+from matrix_models import PMSM
+
+import dcjax
+from dcjax import cli, datasets
+from dcjax.analysis.design import design_input, evaluate_input
+from dcjax.simulation.adjustments import Adjustments
+
+PMSM_TRUTH = dict(Rs=0.5, Ld=1.0e-3, Lq=1.5e-3, psi=0.05, J=1e-4, B=2e-3, Tl=0.02)
+TINY = ["--runs", "1", "--budget", "70"]
+
+
+def _pmsm_csv(path, n=200, dt=1e-4):
+    """A PMSM recording from the NumPy reference (pole pairs 4, a per-recording constant)."""
+    t = np.arange(n) * dt
+    ud = np.where(t < 0.004, 0.5, -1.0)
+    uq = np.where(t < 0.008, 2.0, 6.0)
+    y = ref.simulate(ref.pmsm_field, PMSM_TRUTH, t, np.column_stack([ud, uq, np.full(n, 4.0)]), np.zeros(3), substeps=8)
+    cols = {"t": t, "ud": ud, "uq": uq, "id": y[:, 0], "iq": y[:, 1], "w": y[:, 2]}
+    np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="")
+    return path
+
+
+def test_1_a_joint_fit_takes_per_recording_extras(tmp_path):
+    """`dcjax fit SD1 SD2 --offset i_a --initial omega=fit` (was: 'parameter vector must have 7 entries')."""
+    args = ["fit", "SD1", "SD2", "--offset", "i_a", "--initial", "omega=fit", "--bounds", "table4", *TINY, "--out", str(tmp_path)]
+    assert cli.main(args) == 0
+    names = json.loads((tmp_path / "result.json").read_text())["settings"]["names"]
+    assert names[7:] == ["y0_omega[0]", "y0_omega[1]", "offset_i_a"]
+
+
+def test_2_a_delayed_input_is_u_of_t_minus_d():
+    """The delayed input of an ODE model is eq. 29's interpolation read at tau - d at every stage
+    (the kink of a ramp falls inside an interval): dcjax's simulation equals the NumPy reference's
+    to integration accuracy (the re-interpolated delayed samples of 0.2.0 were 5e-4 off here)."""
+    sd1 = datasets.load("SD1").select(slice(0, 200))
+    t = np.asarray(sd1.t)
+    u = np.interp(t, [0, 0.004, 0.008, 1], [0, 220, 60, 60])  # ramps: the delayed kinks fall between samples
+    rec = sd1.replace(channels={**sd1.channels, "u_a": u})
+    truth = datasets.true_params("SD1")
+    d = 0.37 * (t[1] - t[0])
+    want = ref.simulate(ref.dc_field, truth, t, u, [0.0, 0.0], substeps=64, delays=[d])
+    problem = dcjax.make_problem(rec, dcjax.RK4(substeps=4))
+    adj = Adjustments(y0=jnp.zeros(2), delay=jnp.asarray([d]))
+    got = np.asarray(dcjax.simulate(np.array([truth[n] for n in dcjax.DC.names]), problem, adj))
+    err = np.max(np.abs(got - want) / np.max(np.abs(want), axis=0))
+    assert err < 1e-8, err
+
+
+@pytest.mark.slow
+def test_3_validate_and_simulate_read_a_file_in_the_models_layout_after_a_logger_fit(tmp_path, capsys):
+    sd1 = datasets.load("SD1")
+    table = np.column_stack([sd1.t * 1e3, sd1.u_a, sd1.i_a * 1e3, sd1.omega * 30 / np.pi])
+    np.savetxt(tmp_path / "logger.csv", table, delimiter=",", header="time_ms,U_V,I_mA,n_rpm", comments="")
+    fit = ["fit", str(tmp_path / "logger.csv"), "--columns", "t=time_ms,u_a=U_V,i_a=I_mA,omega=n_rpm", "--units", "t=ms,i_a=mA,omega=rpm"]
+    assert cli.main([*fit, "--bounds", "table4", *TINY, "--out", str(tmp_path / "fit")]) == 0
+    res = str(tmp_path / "fit" / "result.json")
+    sd2 = datasets.load("SD2")
+    dcjax.save_csv(sd2, tmp_path / "SD2.csv")
+    capsys.readouterr()
+    assert cli.main(["validate", res, str(tmp_path / "SD2.csv"), "--out", str(tmp_path / "v")]) == 0
+    out = capsys.readouterr().out
+    assert "SD2.csv is not in the fit's layout (no column 'time_ms' for t): read by its own header" in out
+    assert "SD2" in (tmp_path / "v" / "validation.json").read_text()
+    assert cli.main(["simulate", res, str(tmp_path / "logger.csv"), "--out", str(tmp_path / "s")]) == 0  # the fit's own layout: its reading
+    sim = np.genfromtxt(next((tmp_path / "s").glob("*.csv")), delimiter=",", names=True)
+    np.testing.assert_allclose(sim["t"], sd1.t, rtol=0, atol=1e-12)  # ms converted as in the fit
+
+
+def test_4_design_designs_every_input_of_a_two_input_model():
+    """A PMSM (ud, uq in; pole pairs a constant): both inputs designed within their own ranges,
+    the constant held at its value, every parameter identifiable, no NaN and no warning."""
+    with np.errstate(all="raise"):
+        d = design_input(PMSM(), PMSM_TRUTH, duration=0.01, dt=1e-4, u_range={"ud": (-2.0, 2.0), "uq": (-6.0, 6.0)}, hold=1e-3,
+                         given={"pp": 4.0}, starts=2, steps=5)  # fmt: skip
+    assert d.inputs == ("ud", "uq") and d.levels.shape == (10, 2)
+    rec = d.recording
+    assert rec.constants == {"pp": 4.0} and set(rec.channels) >= {"ud", "uq", "id", "iq", "w"}
+    assert -2.0 <= rec["ud"].min() and rec["ud"].max() <= 2.0 and -6.0 <= rec["uq"].min() and rec["uq"].max() <= 6.0
+    assert d.unidentifiable == [] and all(np.isfinite(v) and v > 0 for v in d.stderr.values())
+    # the recording's own inputs (a step of uq alone) as a baseline: finite, not "inf %"
+    t = rec.t
+    own = evaluate_input(d, PMSM(), {"ud": np.zeros_like(t), "uq": np.where(t < 0.005, 3.0, 6.0)})
+    assert all(np.isfinite(v) for v in own.stderr.values())
+    with pytest.raises(ValueError, match="u_range: no range for the designed input"):
+        design_input(PMSM(), PMSM_TRUTH, duration=0.01, dt=1e-4, u_range={"ud": (-2.0, 2.0)}, given={"pp": 4.0}, starts=1, steps=1)
+    with pytest.raises(ValueError, match="given: unknown input"):
+        design_input(PMSM(), PMSM_TRUTH, duration=0.01, dt=1e-4, u_range=(0.0, 1.0), given={"p": 4.0}, starts=1, steps=1)
+
+
+@pytest.mark.slow
+def test_4_dcjax_design_on_a_pmsm_fit(tmp_path, capsys):
+    data = _pmsm_csv(tmp_path / "p.csv")
+    model = f"{ref.__file__.replace('reference.py', 'matrix_models.py')}:PMSM"
+    bounds = "Rs=0.3:0.7,Ld=5e-4:2e-3,Lq=1e-3:2e-3,psi=0.03:0.07,J=5e-5:2e-4,B=1e-3:3e-3,Tl=0.01:0.03"
+    fit = ["fit", str(data), "--model", model, "--const", "pp=4", "--bound", bounds, "--runs", "1", "--budget", "700", "--polish"]
+    assert cli.main([*fit, "--out", str(tmp_path / "fit")]) == 0
+    design = ["design", str(tmp_path / "fit" / "result.json"), "--duration", "0.01", "--dt", "1e-4", "--range", "ud=-2:2,uq=-6:6"]
+    capsys.readouterr()
+    assert cli.main([*design, "--starts", "2", "--steps", "5", "--out", str(tmp_path / "d")]) == 0
+    out = capsys.readouterr()
+    assert "constants pp=4" in out.out and "inf" not in out.out and "not identifiable" not in out.out and "invalid value" not in out.err
+    header = (tmp_path / "d" / "input.csv").read_text().splitlines()[0]
+    assert header == "t,ud,uq"
+    info = json.loads((tmp_path / "d" / "design.json").read_text())
+    assert info["constants"] == {"pp": 4.0} and info["inputs"] == ["ud", "uq"]
+    # --keep ud: uq alone designed, ud as the fitted recording has it
+    assert (
+        cli.main(
+            [*design[:6], "--umin", "-6", "--umax", "6", "--keep", "ud", "--starts", "1", "--steps", "2", "--out", str(tmp_path / "k")]
+        )
+        == 0
+    )
+    u = np.genfromtxt(tmp_path / "k" / "input.csv", delimiter=",", names=True)
+    np.testing.assert_array_equal(u["ud"][:40], 0.5)
+    assert json.loads((tmp_path / "k" / "design.json").read_text())["kept"] == ["ud"]
+
+
+def test_5_trim_finds_the_switch_on_in_the_models_first_input(tmp_path):
+    rec = dcjax.load_recording(_pmsm_csv(tmp_path / "p.csv"), model=PMSM(), constants={"pp": 4.0})
+    rec = rec.replace(channels={**rec.channels, "ud": np.where(rec.t < 0.002, 0.0, rec["ud"])})
+    dcjax.save_csv(rec, tmp_path / "q.csv")
+    trimmed = dcjax.load_recording(tmp_path / "q.csv", model=PMSM(), constants={"pp": 4.0}, trim=True)
+    assert trimmed.t[0] == pytest.approx(0.002) and trimmed["ud"][0] == 0.5
+
+
+def test_6_a_model_file_imports_its_neighbour(tmp_path):
+    (tmp_path / "pmsm_base.py").write_text("import dcjax\n\nclass Base(dcjax.DC):\n    pass\n")
+    (tmp_path / "pmsm_tl.py").write_text("from pmsm_base import Base\n\nclass PMSMTL(Base):\n    pass\n")
+    before = list(sys.path)
+    model = dcjax.get_model(f"{tmp_path / 'pmsm_tl.py'}:PMSMTL")
+    assert type(model).__name__ == "PMSMTL" and isinstance(model, dcjax.DC)
+    assert sys.path == before  # the folder was importable while the file loaded, and only then
+
+
+def test_7_limit_on_a_model_without_a_clamp_is_one_line(tmp_path, capsys):
+    data = _pmsm_csv(tmp_path / "p.csv", n=40)
+    model = f"{ref.__file__.replace('reference.py', 'matrix_models.py')}:PMSM"
+    assert cli.main(["fit", str(data), "--model", model, "--const", "pp=4", "--limit", "50", *TINY, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["dcjax: error: --limit: model PMSM clamps no state (it has no Model.limited_state); its states are id, iq, w"]

@@ -1,0 +1,278 @@
+"""The composition matrix: every option with every other, on noise-free data from the independent
+NumPy reference (`tests/reference.py`), through `dcjax.fit` and `dcjax.fit_each`.
+
+Cells: {one recording, two of equal length, close lengths (padded into one scan), far lengths
+(one scan each)} x {plain, a local parameter, a sensor offset, an input delay, a fitted initial
+state, an initial state from the derivative of a measured position} x {the paper's DC motor (an
+ODE), the same motor as a discrete-time model (its Euler map), a two-input, three-state PMSM in
+the dq frame with a per-recording constant input}.
+
+A cell checks composition and exactness, not the global search: the parameters start 3 % off the
+truth in a box of -30 % .. +40 %, one population is evaluated and Levenberg-Marquardt polishes
+the best. Every parameter and every extra (local copies, y0, offsets, delays) must then match the
+truth to 1e-6 relative. The ODE cells integrate with RK4 at 4 sub-steps per sample against a
+reference at 32 (both converged to better than 1e-9 of the peaks, `test_the_reference_converges`);
+the discrete-time model's map is the reference's own, so its cells are exact to rounding.
+
+The derivative cells use each model's encoder variant (the shaft angle measured instead of the
+speed): the data start in steady motion with the inputs held over the first samples, so the angle
+is linear there and the quadratic the derivative start fits is exact.
+
+The first cell of each (model, feature) pair with one or two equal recordings runs in the fast set
+(`-m "not slow"`), the rest in the full run."""
+
+import dataclasses
+import functools
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+import reference as ref
+from matrix_models import PMSM, EncoderDC, EncoderEulerDC, EncoderPMSM, EulerDC
+
+import dcjax
+
+DT = 1e-4
+TOL = 1e-6
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """One model of the matrix with its reference equations, its truth and its experiment."""
+
+    model: dcjax.Model
+    encoder: dcjax.Model  # the same with the angle measured instead of the speed
+    field: Callable  # reference vector field (or discrete map)
+    encoder_field: Callable
+    steady: Callable  # the vector field whose rest point the data start at
+    discrete: bool
+    truth: dict
+    levels: tuple  # per input that is recorded: the input's levels (held over the recording's quarters)
+    constants: dict  # per-recording constant inputs (the model's last inputs)
+    local: str  # the parameter a recording has its own value of (`local` cells)
+    offset: str  # measured channel with a sensor offset
+    delay: str  # delayed input
+    fitted: str  # state whose initial value is fitted
+    speed: str  # the speed state (a derivative of the angle in the encoder variant)
+
+
+DC_TRUTH = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
+PMSM_TRUTH = dict(Rs=0.5, Ld=1.0e-3, Lq=1.5e-3, psi=0.05, J=1e-4, B=2e-3, Tl=0.02)
+DC_LEVELS = ((60.0, 220.0, 120.0, 180.0),)
+CASES = {
+    "dc": Case(
+        dcjax.DC(),
+        EncoderDC(),
+        ref.dc_field,
+        ref.dc_encoder_field,
+        ref.dc_field,
+        False,
+        DC_TRUTH,
+        DC_LEVELS,
+        {},
+        "Tla",
+        "i_a",
+        "u_a",
+        "omega",
+        "omega",
+    ),
+    "discrete": Case(
+        EulerDC(),
+        EncoderEulerDC(),
+        ref.dc_euler_map,
+        ref.dc_encoder_euler_map,
+        ref.dc_field,
+        True,
+        DC_TRUTH,
+        DC_LEVELS,
+        {},
+        "Tla",
+        "i_a",
+        "u_a",
+        "omega",
+        "omega",
+    ),  # fmt: skip
+    "pmsm": Case(
+        PMSM(),
+        EncoderPMSM(),
+        ref.pmsm_field,
+        ref.pmsm_encoder_field,
+        ref.pmsm_field,
+        False,
+        PMSM_TRUTH,
+        ((0.5, -1.0, 1.5, 0.0), (2.0, 6.0, 3.0, 5.0)),
+        {"pp": 4.0},
+        "Tl",
+        "id",
+        "uq",
+        "w",
+        "w",
+    ),  # fmt: skip
+}
+LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120)}
+FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative")
+FAST = {"one"}  # the fast set: every (model, feature) pair on one recording; joint cells in the full run
+
+
+def _inputs(case: Case, n: int, r: int) -> np.ndarray:
+    """(n, M) inputs of recording r: each recorded input at its levels (scaled per recording),
+    held for the first 12 samples, then over the thirds; the constants as columns."""
+    cols = []
+    edges = [0, 12, n // 3, 2 * n // 3, n]
+    for levels in case.levels:
+        u = np.empty(n)
+        for k, level in enumerate(levels):
+            u[edges[k] : edges[k + 1]] = level * (1.0 + 0.15 * r)
+        cols.append(u)
+    cols += [np.full(n, v) for v in case.constants.values()]
+    return np.stack(cols, axis=1)
+
+
+@functools.cache
+def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
+    """The recordings of a cell (from the reference) and the truth of every entry of its search vector."""
+    case = CASES[model_key]
+    model = case.encoder if feature == "initial-derivative" else case.model
+    field = case.encoder_field if feature == "initial-derivative" else case.field
+    lengths = LENGTHS[lengths_key]
+    truth: dict = {}
+    recs = []
+    for r, n in enumerate(lengths):
+        p = dict(case.truth)
+        if feature == "local":
+            p[case.local] = case.truth[case.local] * (1.0 + 0.3 * r)
+            truth[f"{case.local}[{r}]" if len(lengths) > 1 else case.local] = p[case.local]
+        t = np.arange(n) * DT
+        u = _inputs(case, n, r)
+        y0 = ref.settle(case.steady, p, u[0], np.zeros(len(case.model.states)), 0.2)
+        if feature == "initial-derivative":
+            y0 = np.append(y0, 0.0)  # the angle starts at 0
+        delays = np.zeros(u.shape[1])
+        if feature == "delay":
+            delays[model.inputs.index(case.delay)] = 2.5 * DT
+        if case.discrete:
+            y = ref.iterate(field, p, t, u, y0, delays=delays)
+        else:
+            y = ref.simulate(field, p, t, u, y0, substeps=32, delays=delays)
+        channels = {c: y[:, model.states.index(c)] for c in model.outputs}
+        if feature == "offset":
+            offset = 0.03 * float(np.max(np.abs(channels[case.offset])))
+            truth.setdefault(f"offset_{case.offset}", offset)
+            channels[case.offset] = channels[case.offset] + truth[f"offset_{case.offset}"]
+        if feature == "initial-fit":
+            truth[f"y0_{case.fitted}[{r}]" if len(lengths) > 1 else f"y0_{case.fitted}"] = float(y0[model.states.index(case.fitted)])
+        recorded = [c for c in model.inputs if c not in case.constants]
+        channels |= {c: u[:, model.inputs.index(c)] for c in recorded}
+        recs.append(dcjax.Recording(t=t, channels=channels, constants=case.constants or None, name=f"{model_key}-{lengths_key}-{r}"))
+    if feature == "delay":
+        truth[f"delay_{case.delay}"] = 2.5 * DT
+    for n in model.names:
+        if not (feature == "local" and n == case.local):
+            truth[n] = case.truth[n]
+    return tuple(recs), truth
+
+
+def observation(case: Case, feature: str) -> dcjax.Observation:
+    return dcjax.Observation(
+        initial={case.fitted: "fit"} if feature == "initial-fit" else {case.speed: "derivative"} if feature == "initial-derivative" else {},
+        offsets=(case.offset,) if feature == "offset" else (),
+        delays=(case.delay,) if feature == "delay" else (),
+    )
+
+
+def start_parameters(model: dcjax.Model, truth: dict, feature: str, case: Case, n_rec: int) -> dcjax.Parameters:
+    """Every parameter 3 % off the truth (alternating in sign) in a box of -30 % .. +40 % around
+    it; the observation's entries start 3 % off inside their automatic ranges."""
+    out = []
+    for k, n in enumerate(model.names):
+        local = feature == "local" and n == case.local
+        values = [truth[f"{n}[{r}]"] for r in range(n_rec)] if local and n_rec > 1 else [truth[n]]
+        sign = 1.0 if k % 2 == 0 else -1.0
+        out.append(dcjax.Parameter(n, value=float(np.mean(values)) * (1 + 0.03 * sign), min=0.7 * min(values), max=1.4 * max(values),
+                                   local=local))  # fmt: skip
+    extras = {n.split("[")[0] for n in truth if n.startswith(("y0_", "offset_", "delay_"))}
+    for n in sorted(extras):
+        values = [v for k, v in truth.items() if k.split("[")[0] == n]
+        out.append(dcjax.Parameter(n, value=float(np.mean(values)) * 1.03))
+    return dcjax.Parameters(out)
+
+
+def fit_cell(model_key: str, lengths_key: str, feature: str) -> tuple[dcjax.FitResult, dict]:
+    case = CASES[model_key]
+    recs, truth = data(model_key, lengths_key, feature)
+    model = case.encoder if feature == "initial-derivative" else case.model
+    params = start_parameters(model, truth, feature, case, len(recs))
+    integrator = None if case.discrete else dcjax.RK4(substeps=4)
+    res = dcjax.fit(list(recs), model, params, observation=observation(case, feature), integrator=integrator, runs=1, budget=70,
+                    polish=True)  # fmt: skip
+    return res, truth
+
+
+def errors(res: dcjax.FitResult, truth: dict) -> dict[str, float]:
+    return {n: abs(res.best_values[n] - v) / abs(v) for n, v in truth.items()}
+
+
+CELLS = [
+    pytest.param(m, ln, f, id=f"{m}-{ln}-{f}", marks=() if ln in FAST else pytest.mark.slow)
+    for m in CASES
+    for ln in LENGTHS
+    for f in FEATURES
+]
+
+
+@pytest.mark.parametrize("model_key,lengths_key,feature", CELLS)
+def test_cell_recovers_the_truth(model_key, lengths_key, feature):
+    res, truth = fit_cell(model_key, lengths_key, feature)
+    assert set(res.best_values) == set(truth), (sorted(res.best_values), sorted(truth))
+    err = errors(res, truth)
+    assert max(err.values()) <= TOL, {k: f"{v:.1e}" for k, v in err.items()}
+
+
+@pytest.mark.parametrize("model_key", ["dc", "pmsm"])
+def test_the_reference_converges(model_key):
+    """The reference at 32 sub-steps is within 1e-9 of the peaks of itself at 64, with a delay too
+    (so it stands for the exact solution of the cells' ODE models)."""
+    case = CASES[model_key]
+    n = 240
+    t = np.arange(n) * DT
+    u = _inputs(case, n, 1)
+    y0 = ref.settle(case.steady, case.truth, u[0], np.zeros(len(case.model.states)), 0.2)
+    delays = np.zeros(u.shape[1])
+    delays[case.model.inputs.index(case.delay)] = 2.5 * DT
+    assert ref.converged(case.field, case.truth, t, u, y0, 32, delays=delays) < 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model_key", list(CASES))
+def test_each_fits_every_recording_alone(model_key):
+    """`fit_each` over recordings of two lengths and a file that does not exist: each recording
+    recovers the truth on its own, the missing file fails alone."""
+    case = CASES[model_key]
+    recs, truth = data(model_key, "far", "plain")
+    params = start_parameters(case.model, truth, "plain", case, 1)
+    integrator = None if case.discrete else dcjax.RK4(substeps=4)
+    out = dcjax.fit_each([*recs, "no/such/file.csv"], case.model, params, integrator=integrator, runs=1, budget=70, polish=True)
+    assert isinstance(out[-1], dcjax.FailedFit) and "no such file" in out[-1].error.lower()
+    for res in out[:-1]:
+        assert isinstance(res, dcjax.FitResult)
+        err = errors(res, truth)
+        assert max(err.values()) <= TOL, {k: f"{v:.1e}" for k, v in err.items()}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model_key", list(CASES))
+def test_design_designs_every_recorded_input(model_key):
+    """`design_input` on each model at its truth: every recorded input designed within its range,
+    the per-recording constants held, every parameter identifiable (finite predicted errors)."""
+    case = CASES[model_key]
+    recorded = tuple(c for c in case.model.inputs if c not in case.constants)
+    ranges = {c: (min(levels), max(levels)) for c, levels in zip(recorded, case.levels)}
+    d = dcjax.design_input(
+        case.model, case.truth, duration=0.024, dt=DT, u_range=ranges, hold=2e-3, given=case.constants, starts=2, steps=5
+    )
+    assert d.inputs == recorded and d.recording.constants == case.constants
+    for c in recorded:
+        u = d.recording[c]
+        assert ranges[c][0] <= u.min() and u.max() <= ranges[c][1]
+    assert all(np.all(np.isfinite(d.recording[s])) for s in case.model.states)
+    assert d.unidentifiable == [] and all(np.isfinite(v) for v in d.stderr.values()), d.stderr

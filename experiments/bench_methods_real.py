@@ -63,7 +63,9 @@ def cases(emps_dir: Path):
     base = dcjax.Recording(t=t, u_a=u, i_a=np.ones_like(t), omega=np.ones_like(t), name="step")
     clean = _generated(base, truth, Adjustments(delay=jnp.asarray([2.5 * (t[1] - t[0])])))
     rec = clean.replace(channels={**clean.channels, "i_a": clean.i_a + 0.03 * float(np.max(np.abs(clean.i_a)))})
-    out["offset + delay"] = dict(data=rec, model=dcjax.DC(), params="table4", observation=dcjax.Observation(offsets=("i_a",), delays=("u_a",)))
+    out["offset + delay"] = dict(
+        data=rec, model=dcjax.DC(), params="table4", observation=dcjax.Observation(offsets=("i_a",), delays=("u_a",))
+    )
     return out
 
 

@@ -40,8 +40,6 @@ def test_identify_warns_and_gives_the_bits_of_fit(sd1):
     fitted = dcjax.fit(sd1, params=_table4_params(), integrator=dcjax.RK4(substeps=2), **SMALL)
     np.testing.assert_array_equal(same.run_of, fitted.run_of)
     assert same.params == fitted.params
-    with pytest.warns(DeprecationWarning, match="result.params"):
-        assert fitted.parameters == fitted.params
 
 
 def test_identify_generations_and_joint_weights(sd1):
@@ -80,9 +78,6 @@ def test_the_01_names_warn_and_are_not_in_all():
         assert name not in dcjax.__all__
         with pytest.warns(DeprecationWarning, match=f"dcjax.{name} is deprecated"):
             getattr(dcjax, name)
-    with pytest.warns(DeprecationWarning, match="RK4"):
-        prob = dcjax.make_problem(datasets.load("SD1"), integrator="rk4", nd=3)
-    assert prob.integrator == dcjax.RK4(substeps=3)
     with pytest.raises(AttributeError):
         dcjax.no_such_name  # noqa: B018
 
@@ -106,24 +101,19 @@ def test_tables_params_and_bounds_preset():
         identify(_rec(), bounds=dcjax.Bounds(np.zeros(6), np.ones(6)), runs=1, budget=70)
 
 
-def test_the_01_limit_keywords(sd1):
-    with pytest.warns(DeprecationWarning):
-        rec = _rec(i_a_limit=3.5)
-    with pytest.warns(DeprecationWarning):
-        assert rec.limit == rec.i_a_limit == 3.5
-    with pytest.warns(DeprecationWarning):
-        assert rec.replace(i_a_limit=2.0).limit == 2.0
-    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="give the limit once"):
-        _rec(limit=3.5, i_a_limit=2.0)
-    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="current limit"):
-        _rec(i_a_limit=-1.0)
-    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="nd"):
-        dcjax.make_problem(sd1, nd=0)
-    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="current limit"):
-        dcjax.make_problem(sd1, i_limit=-2.0)
-    with pytest.warns(DeprecationWarning):
-        prob = dcjax.make_problem(sd1, i0=0.5, w0=2.0)
-    assert prob.y0.tolist() == [0.5, 2.0]
+def test_the_01_keywords_removed_in_03_are_clear_errors(sd1):
+    """The 0.1 keywords of the package's functions warned through 0.2 and are gone in 0.3 (the 0.1
+    entry points stay here, in dcjax.compat): each is a clear error naming what is accepted."""
+    with pytest.raises(ValueError, match="i_a_limit=3.5: a keyword of Recording is a channel.*limit="):
+        _rec(i_a_limit=3.5)
+    with pytest.raises(ValueError, match="column 'i_a_limit' must be one-dimensional"):
+        _rec().replace(i_a_limit=2.0)
+    assert not hasattr(_rec(limit=3.5), "i_a_limit") and _rec(limit=3.5).limit == 3.5
+    with pytest.raises(TypeError, match="nd"):
+        dcjax.make_problem(sd1, nd=2)  # pyright: ignore[reportCallIssue]
+    with pytest.raises(ValueError, match="integrator must be a dcjax.Integrator"):
+        dcjax.make_problem(sd1, "rk4")  # pyright: ignore[reportArgumentType]
+    assert dcjax.make_problem(sd1, initial={"i_a": 0.5, "omega": 2.0}).y0.tolist() == [0.5, 2.0]
 
 
 def test_identify_fleet_is_fit_each(sd1):

@@ -160,7 +160,6 @@ def design_input(
     u_range: "tuple[float, float] | Mapping[str, tuple[float, float]]",
     hold: float | None = None,
     limit: float | None = None,
-    i_limit: float | None = None,
     criterion: str = "d",
     noise: dict[str, float] | None = None,
     fixed: tuple[str, ...] = (),
@@ -199,11 +198,6 @@ def design_input(
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = jnp.asarray([scales[k] for k in free_names])
-    if i_limit is not None:
-        from ..deprecation import warn_deprecated
-
-        warn_deprecated("design_input(i_limit=)", "design_input(limit=)")
-        limit = i_limit if limit is None else limit
     if limit is not None and m.limited_state is None:
         raise ValueError(f"limit: model {m.name} clamps no state (it has no Model.limited_state)")
     base = template_problem(m, params, t, np.tile(hi, (n, 1)), limit, given, names)  # a full step: its peaks set the default noise

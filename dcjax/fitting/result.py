@@ -172,7 +172,7 @@ class FitResult:
     def uncertainty(self, profile: str | None = None, profile_points: int = 11) -> "FitResult":
         """A new result with standard errors, 95 % intervals, correlations and identifiability
         verdicts at the best parameters (`dcjax.analysis.uncertainty`; in `.uncertainties`, and as each
-        parameter's `stderr` in `.parameters`); fixed parameters are known. With `profile="Tla"`
+        parameter's `stderr` in `.params`); fixed parameters are known. With `profile="Tla"`
         also a profile likelihood over the 95 % interval of that parameter
         (`.uncertainties.profile = (values, OFs)`). This result is not changed."""
         from ..analysis.uncertainty import profile as profile_fn
@@ -300,14 +300,6 @@ class FitResult:
                           unit=unit_of(n, self.model), precision=prec.get(n), stderr=se, local=base_name(n) in (self.settings.get("local") or ()))
             )  # fmt: skip
         return Parameters(out)
-
-    @property
-    def parameters(self) -> Parameters:
-        """Deprecated: `params`."""
-        from ..deprecation import warn_deprecated
-
-        warn_deprecated("result.parameters", "result.params")
-        return self.params
 
     @property
     def mean_params(self) -> dict[str, float]:

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..deprecation import warn_deprecated
 from ..models import Model, get_model
 from .recording import Recording, read_sidecar, trim_switch_on
 from .units import select_channels
@@ -197,7 +196,6 @@ def load_recording(
     model: Model | str | None = None,
     name: str | None = None,
     limit: float | None = None,
-    i_limit: float | None = None,
     window=None,
     every: int | None = None,
     trim: bool | float = False,
@@ -222,7 +220,7 @@ def load_recording(
     - `dt` (s) or `rate` (Hz): for a file without a time column, t = k dt.
     - A JSON sidecar with the same stem supplies the name, the current limit (`i_a_limit`), the
       inputs constant in this recording (`"constants": {"kp": 100}`) and metadata; `limit` and
-      `constants` override them (`i_limit=`, the 0.1 name, warns). An input given as a constant
+      `constants` override them. An input given as a constant
       is not read from the file; one that is not is read from its column.
     - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
       (cut before switch-on) — recorded, with the file's path and sha256, in
@@ -255,9 +253,6 @@ def load_recording(
                             inputs=tuple(m.inputs))  # fmt: skip
     if consts:
         meta["constants"] = consts
-    if i_limit is not None:
-        warn_deprecated("load_recording(i_limit=)", "load_recording(limit=)")
-        limit = i_limit if limit is None else limit
     limit = limit if limit is not None else meta.get("i_a_limit")
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..deprecation import warn_deprecated
 from ..models import get_model
 from .units import select_channels
 
@@ -47,7 +46,7 @@ def _constants(given, where: str = "") -> dict[str, float]:
 class Recording:
     """A validated response: strictly increasing time `t` (s), equally long finite channels,
     the clamp `limit` on the model's `limited_state` (for the DC models the supply's current
-    limit in A; `i_a_limit=`/`.i_a_limit`, the 0.1 names, warn) or None, a name and
+    limit in A) or None, a name and
     free-form metadata.
 
     Channels are named by keyword or in `channels`, whatever the model calls them:
@@ -59,7 +58,7 @@ class Recording:
 
     __slots__ = ("t", "channels", "limit", "name", "metadata")
 
-    def __init__(self, t, *, channels=None, limit=None, i_a_limit=None, name: str = "", metadata=None, constants=None, **named_channels):
+    def __init__(self, t, *, channels=None, limit=None, name: str = "", metadata=None, constants=None, **named_channels):
         object.__setattr__(self, "name", str(name or ""))
         chans = dict(channels or {})
         for key, v in named_channels.items():
@@ -99,11 +98,7 @@ class Recording:
         if np.any(dt <= 0):
             k = int(np.flatnonzero(dt <= 0)[0])
             raise DataError("time", f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
-        if i_a_limit is not None:
-            warn_deprecated("Recording(i_a_limit=)", "Recording(limit=)")
-        if limit is not None and i_a_limit is not None and limit != i_a_limit:
-            raise ValueError(f"{self._where()}give the limit once: limit={limit!r} and i_a_limit={i_a_limit!r}")
-        given = limit = limit if limit is not None else i_a_limit
+        given = limit
         if limit is not None:
             try:
                 limit = float(limit)
@@ -134,12 +129,6 @@ class Recording:
     def has(self, name: str) -> bool:
         """A channel or a constant of that name."""
         return name in self.channels or name in self.constants
-
-    @property
-    def i_a_limit(self) -> float | None:
-        """Deprecated (0.1): `limit`."""
-        warn_deprecated("Recording.i_a_limit", "Recording.limit")
-        return self.limit
 
     def __getattr__(self, key):
         try:
@@ -183,12 +172,9 @@ class Recording:
         return self.t.shape[0]
 
     def replace(self, **changes) -> "Recording":
-        """A copy with fields (`t`, `limit` (or `i_a_limit`), `name`, `metadata`, `channels`) or
-        single channels (`i_a=...`) replaced."""
+        """A copy with fields (`t`, `limit`, `name`, `metadata`, `channels`) or single channels
+        (`i_a=...`) replaced."""
         chans = dict(changes.pop("channels", self.channels))
-        if "i_a_limit" in changes:
-            warn_deprecated("Recording.replace(i_a_limit=)", "Recording.replace(limit=)")
-            changes["limit"] = changes.pop("i_a_limit")
         for k in list(changes):
             if k not in ("t", "limit", "name", "metadata", "constants"):
                 chans[k] = changes.pop(k)

@@ -6,10 +6,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ..deprecation import warn_deprecated
 from ..io.recording import DataError, Recording
 from ..models import Model, get_model
-from .integrators import RK4, Integrator, get_integrator, integrator_for
+from .integrators import RK4, Integrator, integrator_for
 from .losses import SSE, Loss, get_loss
 
 
@@ -67,7 +66,6 @@ def make_problem(
     voltage: float | None = None,
     unroll: int = 1,
     loss: Loss | str | None = None,
-    **legacy,
 ) -> Problem:
     """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
 
@@ -85,7 +83,6 @@ def make_problem(
     - The supply's limit on `model.limited_state` is the recording's `limit` (None: no limit;
       `recording.replace(limit=...)` for another).
     """
-    integrator, initial, recording = _legacy_options(integrator, initial, recording, legacy)
     model = get_model(model)
     if integrator is not None and not isinstance(integrator, Integrator):
         raise ValueError(f"integrator must be a dcjax.Integrator (dcjax.Euler(substeps=N), dcjax.RK4(substeps=N), ...), got {integrator!r}")
@@ -150,28 +147,3 @@ def make_problem(
         loss=loss,
         knots=knots_per_interval(t),
     )
-
-
-def _legacy_options(integrator, initial, recording, legacy: dict):
-    """The 0.1 keywords of `make_problem` (`integrator="rk4", nd=N`, `i0=`, `w0=`, `i_limit=`),
-    each with a `DeprecationWarning`; anything else is a one-line error."""
-    unknown = sorted(set(legacy) - {"nd", "i0", "w0", "i_limit"})
-    if unknown:
-        raise ValueError(f"make_problem: unknown option(s) {unknown}; it takes integrator, weights, model, initial, voltage, unroll")
-    nd = legacy.get("nd")
-    if isinstance(integrator, str) or nd is not None:
-        warn_deprecated("make_problem(integrator='rk4', nd=N)", "make_problem(integrator=dcjax.RK4(substeps=N))", 4)
-        check_positive_int("nd", 1 if nd is None else nd)
-        if isinstance(integrator, Integrator):
-            integrator = type(integrator)(substeps=int(nd)) if nd is not None else integrator
-        else:
-            integrator = get_integrator(integrator or "rk4", int(nd or 1))
-    init = dict(initial or {})
-    for key, state in (("i0", "i_a"), ("w0", "omega")):
-        if legacy.get(key) is not None:
-            warn_deprecated(f"make_problem({key}=)", f"make_problem(initial={{{state!r}: ...}})", 4)
-            init[state] = legacy[key]
-    if legacy.get("i_limit") is not None:
-        warn_deprecated("make_problem(i_limit=)", "make_problem(recording.replace(limit=...))", 4)
-        recording = recording.replace(limit=float(legacy["i_limit"]))
-    return integrator, init or None, recording

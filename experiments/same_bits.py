@@ -1,0 +1,34 @@
+"""Same bits: a hash of every run's OF and parameters of the paper's runs, to compare two checkouts.
+
+    python -m experiments.same_bits                       # this checkout
+    PYTHONPATH=/path/to/other/checkout python -m experiments.same_bits
+
+Rows: the README's SD1 fit (50 runs, 140,000 FEs), MD1 (table8, RK4 ND 2, 4 runs), a joint
+SD1+SD2 fit, LTMA and the LM polish. Equal hashes: bit-identical runs."""
+
+import hashlib
+import sys
+
+import numpy as np
+
+import dcjax
+from dcjax import datasets
+
+
+def show(tag: str, res) -> None:
+    h = hashlib.sha256(np.asarray(res.run_of).tobytes() + np.asarray(res.run_params).tobytes()).hexdigest()[:16]
+    print(f"{tag:<18} {h}  best OF {float(res.of)!r}", flush=True)
+
+
+def main() -> None:
+    print(f"dcjax {dcjax.__version__} from {dcjax.__file__}", file=sys.stderr)
+    sd1, sd2, md1 = datasets.load("SD1"), datasets.load("SD2"), datasets.load("MD1")
+    show("SD1-readme", dcjax.fit(sd1, runs=50, budget=140_000, seed=0))
+    show("MD1-table8-rk4nd2", dcjax.fit(md1, params="table8", integrator=dcjax.RK4(substeps=2), runs=4, budget=140_000, seed=0))
+    show("joint-SD1-SD2", dcjax.fit([sd1, sd2], params="table4", runs=4, budget=28_000, seed=0))
+    show("LTMA", dcjax.fit(sd1, params="table4", memory=dcjax.LTMA(), runs=4, budget=28_000, seed=0))
+    show("polish", dcjax.fit(sd1, params="table4", runs=2, budget=14_000, seed=0, polish=True))
+
+
+if __name__ == "__main__":
+    main()

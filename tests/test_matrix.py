@@ -63,39 +63,27 @@ class Case:
 DC_TRUTH = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
 PMSM_TRUTH = dict(Rs=0.5, Ld=1.0e-3, Lq=1.5e-3, psi=0.05, J=1e-4, B=2e-3, Tl=0.02)
 DC_LEVELS = ((60.0, 220.0, 120.0, 180.0),)
+DC_CASE = Case(
+    dcjax.DC(),
+    EncoderDC(),
+    ref.dc_field,
+    ref.dc_encoder_field,
+    ref.dc_field,
+    False,
+    DC_TRUTH,
+    DC_LEVELS,
+    {},
+    "Tla",
+    "i_a",
+    "u_a",
+    "omega",
+    "omega",
+)
 CASES = {
-    "dc": Case(
-        dcjax.DC(),
-        EncoderDC(),
-        ref.dc_field,
-        ref.dc_encoder_field,
-        ref.dc_field,
-        False,
-        DC_TRUTH,
-        DC_LEVELS,
-        {},
-        "Tla",
-        "i_a",
-        "u_a",
-        "omega",
-        "omega",
+    "dc": DC_CASE,
+    "discrete": dataclasses.replace(  # the same motor, truth and experiment as its discrete-time (Euler) map
+        DC_CASE, model=EulerDC(), encoder=EncoderEulerDC(), field=ref.dc_euler_map, encoder_field=ref.dc_encoder_euler_map, discrete=True
     ),
-    "discrete": Case(
-        EulerDC(),
-        EncoderEulerDC(),
-        ref.dc_euler_map,
-        ref.dc_encoder_euler_map,
-        ref.dc_field,
-        True,
-        DC_TRUTH,
-        DC_LEVELS,
-        {},
-        "Tla",
-        "i_a",
-        "u_a",
-        "omega",
-        "omega",
-    ),  # fmt: skip
     "pmsm": Case(
         PMSM(),
         EncoderPMSM(),

@@ -86,6 +86,25 @@ def test_saturation_needs_a_steep_entry_and_a_quantised_plateau_is_not_one():
     assert [f.label for f in check_recording(clipped, dcjax.DC()) if f.check == "saturated"] == ["saturated:i_a"]
 
 
+def test_an_input_without_excitation_and_a_one_sample_pulse_are_named():
+    t = np.arange(400) * 1e-3
+    decay = 100 * np.exp(-t / 0.1)
+    by_hand = dcjax.Recording(t=t, u_a=np.zeros_like(t), i_a=-0.01 * decay, omega=decay)
+    found = [f for f in check_recording(by_hand, dcjax.DC()) if f.check == "no-input"]
+    assert [f.severity for f in found] == ["warning"] and "zero throughout while i_a, omega moves" in found[0].message
+    noise = np.random.default_rng(0).normal(size=(2, t.size))
+    still = dcjax.Recording(t=t, u_a=np.full_like(t, 12.0), i_a=0.3 + 1e-3 * noise[0], omega=25 + 1e-2 * noise[1])
+    assert [f.message.split(":")[0] for f in check_recording(still, dcjax.DC())] == ["input u_a is constant and nothing moves"]
+    step = still.replace(i_a=np.exp(-t / 0.01), omega=30 * (1 - np.exp(-t / 0.05)))  # a switch-on step from rest: excited
+    assert not [f for f in check_recording(step, dcjax.DC()) if f.check in ("no-input", "pulse")]
+    pulse = np.zeros_like(t)
+    pulse[100] = 2.0
+    kicked = step.replace(u_a=pulse)
+    assert [f.label for f in check_recording(kicked, dcjax.DC()) if f.check == "pulse"] == ["pulse:u_a"]
+    assert [f.check for f in check_recording(kicked.replace(u_a=np.where(np.arange(400) % 50 < 2, 2.0, 0.0)), dcjax.DC())
+            if f.check == "pulse"] == []  # two samples are resolved  # fmt: skip
+
+
 class Product(dcjax.Model):
     """dy/dt = u - a b y: a and b only as their product (a null direction of the Jacobian)."""
 
@@ -175,6 +194,13 @@ def test_validate_reads_the_file_as_the_fit_did_and_warns_of_a_scale_slip(tmp_pa
     assert cli.main(["validate", str(tmp_path / "f" / "result.json"), str(path), "--units", "t=ms", "--out", str(tmp_path / "x")]) == 0
     _, err = capsys.readouterr()  # mA read as A: a 1000x slip
     assert "the peak of i_a is 1e+03x the fitted recording's" in err and "unit or scale slip" in err
+    kicked = table.copy()
+    kicked[:, 1] = 0.0
+    kicked[50, 1] = 20 * table[:, 1].max()  # one sample of 20x the fitted voltage: a pulse, not a slip
+    np.savetxt(tmp_path / "kick.csv", kicked, delimiter=",", header="t,u_a,i_a,omega", comments="")
+    assert cli.main(["validate", str(tmp_path / "f" / "result.json"), str(tmp_path / "kick.csv"), "--out", str(tmp_path / "k")]) == 0
+    _, err = capsys.readouterr()
+    assert "the peak of u_a" in err and "is a pulse shorter than two samples" in err and "slip" not in err
 
 
 @pytest.mark.slow
@@ -190,7 +216,9 @@ def test_plots_option_and_a_progress_line_per_file(tmp_path, capsys):
     assert rc == 0 and (tmp_path / "e" / "SD1" / "fit.png").is_file()
     with pytest.raises(SystemExit):
         cli.main(["fit", str(sd[0]), "--plots", "sometimes"])
-    assert cli.main(["fit", str(sd[0]), "--plots", "none", "--out", str(tmp_path / "x")]) == 2  # --plots goes with --each
+    assert cli.main(["fit", str(sd[0]), "--plots", "summary", "--out", str(tmp_path / "x")]) == 2  # goes with --each
+    assert cli.main(["fit", *map(str, sd), "--plots", "none", "--runs", "1", "--budget", "140", "--out", str(tmp_path / "j")]) == 0
+    assert (tmp_path / "j" / "result.json").is_file() and not (tmp_path / "j" / "fit.png").exists()  # a joint fit without its plot
 
 
 def test_a_zero_at_a_required_parameter_is_a_failed_fit_hint():

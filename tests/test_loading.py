@@ -11,6 +11,7 @@ import pytest
 
 import dcjax
 from dcjax import Recording, datasets, load_recording, load_result
+from dcjax.analysis.checks import check_recording
 from dcjax.cli import main
 
 RPM = 2 * np.pi / 60
@@ -158,3 +159,44 @@ def test_saving_a_plot_keeps_the_backend(sd1, tmp_path):
 
     ax = Figure().subplots(1, 2)
     assert r.plot(ax=ax) is ax and len(ax[0].lines) == 2
+
+
+def write_logger(path: Path, rec: Recording, holes: dict[int, int] | None = None):
+    """A recording as an ODrive-style logger writes it: `;` ending every line, a units line under
+    the header, `nan` or an empty field in some rows (`holes`: row -> column), irregular times."""
+    rows = ["time;voltage;current;speed;", "s;V;A;rad/s;"]
+    for k in range(len(rec)):
+        fields = [repr(float(v)) for v in (rec.t[k], rec.u_a[k], rec.i_a[k], rec.omega[k])]
+        if holes and k in holes:
+            fields[holes[k]] = "nan" if k % 2 else ""
+        rows.append(";".join(fields) + ";")
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_a_loggers_file_reads_with_flags_and_no_editing(tmp_path, sd1):
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.uniform(0.8, 1.2, len(sd1))) * 1e-4  # irregular sampling
+    rec = sd1.replace(t=t)
+    write_logger(tmp_path / "step1.csv", rec, holes={40: 2, 41: 3, 300: 2})
+    cols = {"t": "time", "u_a": "voltage", "i_a": "current", "omega": "speed"}
+    with pytest.raises(ValueError, match=r"column 'i_a' has NaN/inf at row 40 \(2 in all; .*--drop-nan drops such rows\)"):
+        load_recording(tmp_path / "step1.csv", columns=cols)
+    with pytest.warns(UserWarning, match=rf"step1.csv: dropped 3 of {len(sd1)} rows with NaN/inf \(in i_a, omega\)"):
+        got = load_recording(tmp_path / "step1.csv", columns=cols, drop_nan=True)
+    keep = np.setdiff1d(np.arange(len(sd1)), [40, 41, 300])
+    np.testing.assert_array_equal(got.t, t[keep])
+    np.testing.assert_array_equal(got.i_a, sd1.i_a[keep])
+    assert got.metadata["source"]["load"]["drop_nan"] is True
+    assert [f.check for f in check_recording(got, dcjax.DC())] == ["irregular"]
+    write_logger(tmp_path / "by_hand.csv", rec.replace(u_a=np.zeros(len(sd1))))  # moved by hand: no input
+    found = check_recording(load_recording(tmp_path / "by_hand.csv", columns=cols), dcjax.DC())
+    assert "no-input" in [f.check for f in found]
+
+
+@pytest.mark.slow
+def test_a_loggers_file_fits_through_the_cli(tmp_path, sd1, capsys):
+    write_logger(tmp_path / "step1.csv", sd1, holes={40: 2})
+    args = ["--columns", "t=time,u_a=voltage,i_a=current,omega=speed", "--drop-nan", "--bounds", "table4", "--runs", "1"]
+    assert main(["fit", str(tmp_path / "step1.csv"), *args, "--budget", "1400", "--out", str(tmp_path / "f")]) == 0
+    assert f"dropped 1 of {len(sd1)} rows" in capsys.readouterr().err
+    assert main(["validate", str(tmp_path / "f" / "result.json"), str(tmp_path / "step1.csv"), "--out", str(tmp_path / "v")]) == 0

@@ -3,7 +3,7 @@ NumPy reference (`tests/reference.py`), through `dcjax.fit` and `dcjax.fit_each`
 
 Cells: on one recording, each feature alone ({plain, a local parameter, a sensor offset, an
 input delay, a fitted initial state, an initial state from the derivative of a measured
-position}); on two recordings of equal length (stacked), close lengths (padded into one scan) and
+position, some states compared (`measure`) while the others' columns give their initial values}); on two recordings of equal length (stacked), close lengths (padded into one scan) and
 far lengths (one scan each), every feature at once ("all": local, offset, delay, fitted initial
 state; and on close lengths "all-derivative": the derivative start with the others); each on the
 paper's DC motor (an ODE), the same motor as a discrete-time model (its Euler map) and a
@@ -58,6 +58,8 @@ class Case:
     delay: str  # delayed input
     fitted: str  # state whose initial value is fitted
     speed: str  # the speed state (a derivative of the angle in the encoder variant)
+    measure: tuple[str, ...] = ()  # the states a `measure` cell compares (the others' columns still give their initial values)
+    known: str | None = None  # the parameter a `measure` cell fixes at its truth (where the compared states leave a symmetry)
 
 
 DC_TRUTH = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
@@ -78,6 +80,8 @@ DC_CASE = Case(
     "u_a",
     "omega",
     "omega",
+    measure=("omega",),  # with the current not compared, Ra/s, La/s, J s, Tla s, ... give the same speed: Ra known
+    known="Ra",
 )
 CASES = {
     "dc": DC_CASE,
@@ -99,10 +103,11 @@ CASES = {
         "uq",
         "w",
         "w",
+        measure=("id", "iq"),  # the currents alone: the speed enters both through pp w Lq iq and pp w (Ld id + psi)
     ),  # fmt: skip
 }
 LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120)}
-FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative")
+FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative", "measure")
 # Joint fits take the features together (a cell compiles a search and a polish, 5-10 s on 2 cores:
 # one cell per feature and length would not fit the test time): every feature at once, and the
 # derivative start with the others on padded lengths.
@@ -142,7 +147,7 @@ def _inputs(case: Case, n: int, r: int) -> np.ndarray:
 def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
     """The recordings of a cell (from the reference) and the truth of every entry of its search vector."""
     case, f = CASES[model_key], parts(feature)
-    model = case.encoder if "initial-derivative" in f else case.model
+    model = case.encoder if "initial-derivative" in f else case.model.measuring(case.measure) if "measure" in f else case.model
     field = case.encoder_field if "initial-derivative" in f else case.field
     lengths = LENGTHS[lengths_key]
     truth: dict = {}
@@ -164,7 +169,7 @@ def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
             y = ref.iterate(field, p, t, u, y0, delays=delays)
         else:
             y = ref.simulate(field, p, t, u, y0, substeps=32, delays=delays)
-        channels = {c: y[:, model.states.index(c)] for c in model.outputs}
+        channels = {c: y[:, model.states.index(c)] for c in (model.states if "measure" in f else model.outputs)}
         if "offset" in f:
             offset = 0.03 * float(np.max(np.abs(channels[case.offset])))
             truth.setdefault(f"offset_{case.offset}", offset)
@@ -188,6 +193,7 @@ def observation(case: Case, feature: str) -> dcjax.Observation:
         initial={case.fitted: "fit"} if "initial-fit" in f else {case.speed: "derivative"} if "initial-derivative" in f else {},
         offsets=(case.offset,) if "offset" in f else (),
         delays=(case.delay,) if "delay" in f else (),
+        measure=case.measure if "measure" in f else None,
     )
 
 
@@ -199,6 +205,9 @@ def start_parameters(model: dcjax.Model, truth: dict, feature: str, case: Case, 
         local = "local" in parts(feature) and n == case.local
         values = [truth[f"{n}[{r}]"] for r in range(n_rec)] if local and n_rec > 1 else [truth[n]]
         sign = 1.0 if k % 2 == 0 else -1.0
+        if "measure" in parts(feature) and n == case.known:
+            out.append(dcjax.Parameter(n, value=truth[n], min=0.7 * truth[n], max=1.4 * truth[n], vary=False))
+            continue
         out.append(dcjax.Parameter(n, value=float(np.mean(values)) * (1 + 0.03 * sign), min=0.7 * min(values), max=1.4 * max(values),
                                    local=local))  # fmt: skip
     extras = {n.split("[")[0] for n in truth if n.startswith(("y0_", "offset_", "delay_"))}

@@ -317,3 +317,18 @@ def test_use_compiled_loops_after_start_warns():
     assert p.returncode != 0 and "before any JAX computation" in p.stderr
     with pytest.raises(ValueError, match="max_bytes"):
         dcjax.use_compiled_loops(0)
+
+
+def test_derived_quantities_of_the_dc_motor_against_the_reference_simulator():
+    """`DC.derived`: the static speed gain is the speed the independent NumPy RK4 settles at per
+    volt (Tla = Tlc = 0), the electrical and mechanical time constants the stated ratios; the
+    report prints them."""
+    import reference as ref
+
+    p = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.0, Tlb=3.27e-5, Tlc=0.0)
+    d = dcjax.DC().derived(p)
+    rest = ref.settle(ref.dc_field, p, np.array([100.0]), np.zeros(2), 0.5)
+    assert d["static speed gain omega/u_a"][0] == pytest.approx(rest[1] / 100.0, rel=1e-9)
+    assert d["electrical time constant La/Ra"] == (pytest.approx(0.08 / 42.5), "s")
+    assert d["mechanical time constant Ra J/(cm^2 + Ra Tlb)"][0] == pytest.approx(42.5 * 2e-5 / (0.4781**2 + 42.5 * 3.27e-5))
+    assert dcjax.Model.derived(dcjax.DC(), p) == {}  # the protocol's default: nothing derived

@@ -17,6 +17,11 @@ line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists
 |               |          | change over the 3 samples before is >= 20 % of the channel's steepest such   |
 |               |          | change and > 3 quantisation steps (not an approach to a steady state)        |
 | `gap`         | warning  | sample intervals longer than 5x the median                                   |
+| `irregular`   | warning  | the sample intervals' spread (std / median) above 10 % (none is a gap)       |
+| `no-input`    | warning  | every recorded input zero throughout (the motor moved by hand, or a free     |
+|               |          | response only), or constant while no measured channel moves (a steady state) |
+| `pulse`       | warning  | an input reaches half its peak in fewer than two samples (a pulse the        |
+|               |          | sampling barely resolves; not a unit slip)                                   |
 | `slow-rate`   | warning  | after the fit: the median sample interval exceeds a time constant of the     |
 |               |          | fitted model (`Model.time_constants`; DC: La/Ra)                             |
 | `no-follow`   | warning  | after the fit: fit % <= 0 on a channel (the model does not follow it)        |
@@ -111,6 +116,41 @@ def _saturated(y: np.ndarray, peak: float) -> Finding | None:
     return Finding("saturated", WARNING, f"held at {ext:.6g} for {int(length[j])} samples from t index {int(starts[j])} (clipped?)")
 
 
+def pulse_width(u: np.ndarray) -> int:
+    """How many samples of `u` reach half its peak magnitude (0 for an input that is all zero)."""
+    peak = float(np.max(np.abs(u))) if u.size else 0.0
+    return int(np.sum(np.abs(u) >= 0.5 * peak)) if peak > 0 else 0
+
+
+def _moves(y: np.ndarray) -> bool:
+    """The channel changes by more than its noise (the range of 10^4 Gaussian samples is ~8 sigma)
+    and its quantisation."""
+    return float(np.ptp(y)) > max(10 * noise_step(y), 3 * quantisation_step(y))
+
+
+def input_findings(recording: Recording, model: Model) -> list[Finding]:
+    """`no-input` (every recorded input zero throughout, or constant while nothing moves) and
+    `pulse` (an input at half its peak in fewer than two samples); module docstring."""
+    recorded = [c for c in model.inputs if c in recording.channels and c not in recording.constants]
+    if not recorded:
+        return []
+    u = {c: np.asarray(recording[c], float) for c in recorded}
+    moving = [c for c in model.outputs if c in recording.channels and _moves(np.asarray(recording[c], float))]
+    out = []
+    if all(not np.any(v) for v in u.values()):
+        out.append(Finding("no-input", WARNING, f"input {', '.join(recorded)} is zero throughout"
+                           + (f" while {', '.join(moving)} moves: moved by hand, or a free response from the initial state only?" if moving
+                              else " and nothing moves"), recorded[0]))  # fmt: skip
+    elif all(np.ptp(v) == 0 for v in u.values()) and not moving:
+        out.append(Finding("no-input", WARNING, f"input {', '.join(recorded)} is constant and nothing moves: the recording shows "
+                                                "a steady state only", recorded[0]))  # fmt: skip
+    for c, v in u.items():
+        if np.any(v) and (width := pulse_width(v)) < 2:
+            out.append(Finding("pulse", WARNING, f"input {c} reaches half its peak {np.max(np.abs(v)):.4g} in {width} sample only: "
+                                                 "a pulse shorter than two samples, which the sampling barely resolves", c))  # fmt: skip
+    return out
+
+
 def check_recording(recording: Recording, model: Model) -> list[Finding]:
     """The findings on one recording for `model` (module docstring), before any fit."""
     out: list[Finding] = []
@@ -122,6 +162,9 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
         k = int(np.argmax(dt))
         out.append(Finding("gap", WARNING, f"{int(long.sum())} sample interval(s) longer than 5x the median {med:.3g} s "
                                            f"(the longest {dt[k]:.3g} s at t = {t[k]:.6g} s)"))  # fmt: skip
+    elif dt.size > 1 and (spread := float(np.std(dt)) / med) > 0.1:
+        out.append(Finding("irregular", WARNING, f"the sample intervals vary by {100 * spread:.0f} % (std / median {med:.3g} s, "
+                                                 f"{dt.min():.3g}..{dt.max():.3g} s): simulated on the recorded times"))  # fmt: skip
     for c in model.outputs:
         if c not in recording.channels:
             continue
@@ -148,7 +191,7 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
             if cos < -0.5:
                 out.append(Finding("reversed", WARNING, f"{c} opposes {source} (cos {cos:+.2f}) where the model says it follows it: "
                                                         "wired or signed in reverse?", c))  # fmt: skip
-    return out
+    return out + input_findings(recording, model)
 
 
 def fleet_findings(recordings: Sequence[Recording], model: Model, ratio: float = 0.05) -> list[list[Finding]]:

@@ -99,4 +99,8 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
         pairs = u.strong_correlations(correl_threshold)
         lines.append(f"[[Correlations]] (unreported correlations are < {correl_threshold:.3f})")
         lines += [f"    C({a}, {b}) = {c:+.4f}" for a, b, c in pairs] or ["    none"]
+    derived = m.derived(result.values(0) if hasattr(result, "values") else result.best_values)  # a local one: the first recording's
+    if derived:
+        lines.append("[[Derived]] (" + f"{m.name}.derived)")
+        lines += [f"    {k} = {v:.6g} {unit}" for k, (v, unit) in derived.items()]
     return "\n".join(lines)

@@ -58,6 +58,8 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--units", default=None, help="channel=unit pairs, e.g. for the DC motor t=ms,i_a=mA,omega=rpm (converted to SI)")
     g.add_argument("--delimiter", default=None, help="',', ';', 'tab' or 'whitespace' (default: detected)")
     g.add_argument("--decimal", default=".", help="decimal separator, '.' or ','")
+    g.add_argument("--drop-nan", action="store_true", help="drop the rows with a NaN/inf or an empty field in a channel read, "
+                   "with a one-line count (default: such a row is an error)")  # fmt: skip
     g.add_argument("--window", default=None, help="keep T0:T1 (seconds)")
     g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
     g.add_argument("--trim", action="store_true", help="cut the samples before the model's first input is switched on (the DC motor: u_a)")
@@ -100,6 +102,8 @@ def _add_experiment_options(f: argparse.ArgumentParser) -> None:
         "--local", default=None,
         help="parameters with one value per recording of a joint fit, e.g. for the DC motor Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
     )  # fmt: skip
+    g.add_argument("--measure", default=None, help="the states compared with the recording (default: the model's measured states), "
+                   "e.g. for the DC motor with only its speed logged omega; a column named after another state still gives its initial state")  # fmt: skip
     g.add_argument("--offset", default=None, help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "
                    "the peak; --bound offset_CH=LO:HI), e.g. for the DC motor i_a")  # fmt: skip
     g.add_argument("--delay", default=None, help="inputs with a free delay delay_IN in seconds (range 0..10 samples; "
@@ -200,7 +204,7 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         choices=["each", "summary", "none"],
         help="with --each: a fit.png per file (each), only summary.png (summary, the default: a file's plot costs more than its "
-        "search at --runs 2), or none",
+        "search at --runs 2), or none; a single or joint fit: none (no fit.png)",
     )
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
     f.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,

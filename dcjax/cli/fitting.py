@@ -1,5 +1,6 @@
 """`dcjax fit`: one fit of one or several recordings (a joint fit), or `--each` file on its own."""
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -21,6 +22,7 @@ def reading_of(args):
         delimiter=args.delimiter,
         decimal=args.decimal,
         constants=_named_floats(getattr(args, "const", None), "--const") or None,
+        drop_nan=bool(getattr(args, "drop_nan", False)),
     )
 
 
@@ -52,8 +54,9 @@ def _nd(text: str):
 
 def _bounds(args, model, recs):
     """--lower/--upper, --bounds (a preset or auto from every recording of the fit; default the
-    sidecar's preset, else auto) and the --bound overrides of the model's parameters over them.
-    Returns (Bounds, start values of the auto estimate)."""
+    sidecar's preset, else auto; auto with a --bound range for every parameter estimates nothing)
+    and the --bound overrides of the model's parameters over them. Returns (Bounds, start values of
+    the auto estimate)."""
     from ..models.bounds import Bounds, resolve_bounds
 
     recs = recs if isinstance(recs, list) else [recs]
@@ -61,19 +64,21 @@ def _bounds(args, model, recs):
     if (args.lower is None) != (args.upper is None):
         raise ValueError("--lower and --upper must be given together")
     start = {}
+    given = {k: v for k, v in _named_ranges(args.bound, "--bound").items() if k in model.names or not _observed(k)}
     if args.lower is not None:
         if args.bounds is not None:
             raise ValueError("give either --bounds or --lower/--upper, not both")
         bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
     else:
         preset = args.bounds or (rec.metadata.get("bounds") if rec.metadata.get("bounds") in model.preset_names else "auto")
-        if preset.lower() == "auto":
+        if preset.lower() == "auto" and set(model.names) <= set(given):  # --bound gave every range: nothing to estimate
+            bounds = Bounds([given[n][0] for n in model.names], [given[n][1] for n in model.names], model.names)
+        elif preset.lower() == "auto":
             from ..analysis.estimate import auto_bounds
 
             bounds, start, _ = auto_bounds(recs, model)
         else:
             bounds = resolve_bounds(model, preset)
-    given = {k: v for k, v in _named_ranges(args.bound, "--bound").items() if k in model.names or not _observed(k)}
     return resolve_bounds(model, bounds, given), start
 
 
@@ -85,7 +90,6 @@ def _observed(name: str) -> bool:
 def _options(args, model) -> dict:
     """The `dcjax.fit` options every file of this command shares (the parameters are per file):
     the strategy (with --generations), the integrator, the memory and the `Observation`, built once."""
-    import dataclasses
 
     from ..fitting.observation import Observation
     from ..models import DiscreteModel
@@ -113,7 +117,8 @@ def _options(args, model) -> dict:
     if args.generations is not None:
         strategy = dataclasses.replace(strategy, generations=args.generations)
     observation = Observation(get_loss(args.loss or "sse", args.normalize), parse_mapping(args.initial, "--initial"),
-                              _names(args.offset, "--offset"), _names(args.delay, "--delay"))  # fmt: skip
+                              _names(args.offset, "--offset"), _names(args.delay, "--delay"),
+                              None if args.measure is None else _names(args.measure, "--measure"))  # fmt: skip
     return dict(method=strategy, integrator=integrator, runs=args.runs, budget=args.budget, seed=args.seed,
                 memory=None if args.memory is None else MEMORIES[args.memory], polish=args.polish, observation=observation)  # fmt: skip
 
@@ -221,7 +226,11 @@ def _print_fit(result, recs, args, model, out):
     truth = recs[0].metadata.get("true_params")
     if any(r.metadata.get("true_params") != truth for r in recs) or not isinstance(truth, dict) or set(truth) != set(model.names):
         truth = None
-    names = " + ".join(r.name for r in recs)
+    names = (
+        " + ".join(r.name for r in recs)
+        if len(recs) <= 4
+        else f"{recs[0].name} + {recs[1].name} + ... + {recs[-1].name} ({len(recs)} recordings)"
+    )
     b = result.settings["bounds"]
     print(
         f"{names}: model {model.name}, {args.method}, {result.settings['integrator']}, ND={result.settings['nd']}, {args.runs} runs x {args.budget} FEs, seed {args.seed}"
@@ -239,7 +248,8 @@ def _print_fit(result, recs, args, model, out):
     if not result.observation.plain:
         o = result.observation
         print(f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"
-              + (f"; initial {', '.join(f'{k}={v}' for k, v in o.initial.items())}" if o.initial else ""))  # fmt: skip
+              + (f"; initial {', '.join(f'{k}={v}' for k, v in o.initial.items())}" if o.initial else "")
+              + (f"; compared: {', '.join(o.measure)}" if o.measure is not None else ""))  # fmt: skip
     w = max(6, *(len(n) for n in result.names))
     header = f"{'param':>{w}} {'unit':>7} {'identified':>22} {'lower':>10} {'upper':>10}" + (
         f" {'true':>14} {'rel. error':>11}" if truth else ""
@@ -272,10 +282,12 @@ def _print_fit(result, recs, args, model, out):
         print(line)
     from ..analysis.checks import fit_findings
 
-    for f in [*result.checks, *(g for r in recs for g in fit_findings(result, r))]:
+    named = lambda r, g: g if len(recs) == 1 else dataclasses.replace(g, message=f"{r.name}: {g.message}")  # a joint fit: whose
+    for f in [*result.checks, *(named(r, g) for r in recs for g in fit_findings(result, r))]:
         print(f"check {f}")
     print(
-        f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'} and {out / 'fit.png'}"
+        f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'}"
+        + (f" and {out / 'fit.png'}" if args.plots is None else "")
     )
 
 
@@ -291,14 +303,15 @@ def fit(args) -> int:
 
     model = get_model(args.model)
     options = _options(args, model)
+    model = options["observation"].check(model).observed(model)  # --measure: the compared states
     if args.each:
         return fit_each_cmd(args, model, options)
-    if args.plots is not None:
-        raise ValueError("--plots goes with --each (a single fit always writes fit.png)")
+    if args.plots not in (None, "none"):
+        raise ValueError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
     recs = [_load(d, args, model) for d in args.data]
     result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
     out = Path(args.out)
-    _save(result, out)
+    _save(result, out, plot=args.plots is None)
     _print_fit(result, recs, args, model, out)
     return 0
 
@@ -362,10 +375,11 @@ class _Split:
 
 
 def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
+    """`[k/n] name: ok, OF ..., S s, L left`: S the file's share of its batch's search and its writing."""
     from ..fitting.result import FailedFit
 
     status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"
-    return f"[{k}/{n}] {name}: {status}, {seconds:.2f} s, {n - k} left"
+    return f"[{k}/{n}] {name}: {status}, {seconds:.3g} s, {n - k} left"
 
 
 def fit_each_cmd(args, model, options) -> int:
@@ -408,11 +422,9 @@ def _fit_each_files(args, model, options, split: "_Split") -> int:
             warn = [f.label for f in result.checks]
             print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "")
                   + (f"; checks: {' '.join(warn)}" if warn else "") + f"; wrote {folder}")  # fmt: skip
-        bar(
-            _progress_line(
-                k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result, time.perf_counter() - t_file
-            )
-        )
+        share = 0.0 if isinstance(result, FailedFit) else float(result.timing.get("run_s", 0.0))  # its share of the batch's search
+        bar(_progress_line(k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result,
+                           share + time.perf_counter() - t_file))  # fmt: skip
     bar(None)
     rows = summary_rows(results, model)
     csv_path, png = write_summary(rows, out, model, plot=plots != "none")

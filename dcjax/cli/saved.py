@@ -22,6 +22,7 @@ def _load_like_fit(data: str, args, res):
     own header, with a note (the fit's unit conversions are not applied to it). A channel whose
     peak differs from the fitted recording's by more than 10x gets a one-line warning (a unit or
     scale slip)."""
+    from ..analysis.checks import pulse_width
     from ..io.loading import Reading
     from ..io.units import ColumnError
     from .fitting import reading_of
@@ -45,7 +46,10 @@ def _load_like_fit(data: str, args, res):
         if c in rec.channels and peak_fit > 0:
             peak = float(np.max(np.abs(rec[c])))
             ratio = peak / peak_fit
-            if not 0.1 <= ratio <= 10:
+            if not 0.1 <= ratio <= 10 and pulse_width(np.asarray(rec[c], float)) < 2:  # a short pulse, not a unit
+                warnings.warn(f"{rec.name}: the peak of {c} ({peak:.4g}, {ratio:.3g}x the fitted recording's) is a pulse shorter "
+                              "than two samples", stacklevel=2)  # fmt: skip
+            elif not 0.1 <= ratio <= 10:
                 warnings.warn(f"{rec.name}: the peak of {c} is {ratio:.3g}x the fitted recording's ({peak:.4g} vs {peak_fit:.4g}): "
                               "a unit or scale slip? (--units, --scale)", stacklevel=2)  # fmt: skip
     return rec

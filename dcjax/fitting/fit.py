@@ -67,7 +67,8 @@ def fit(
     `observation`: the terms beyond the paper's (`dcjax.Observation`): the loss (`"sse"`, eq.
     24/27, the default; `"l1"`; `"huber:DELTA"`; normalised by each channel's peak or not), the
     initial states (a number, `"measured"`, `"derivative"` or `"fit"`: a free `y0_<state>` per
-    recording), sensor offsets (`offset_<channel>`) and input delays (`delay_<input>`, s). A
+    recording), sensor offsets (`offset_<channel>`), input delays (`delay_<input>`, s) and the
+    states compared (`measure=("omega",)`: the speed alone; default the model's measured). A
     `Parameter(local=True)` of `params` gets one value per recording of a joint fit (`Tla[0]`,
     `Tla[1]`, ...); `params` may also hold `offset_*`, `delay_*`, `y0_*` entries (ranges, start
     values, `local`).

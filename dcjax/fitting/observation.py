@@ -1,5 +1,6 @@
 """How a fit observes and scores its recordings beyond the model: the `Loss`, each state's
-initial value, sensor offsets on measured channels and delays of inputs (issue 28).
+initial value, sensor offsets on measured channels, delays of inputs (issue 28) and which states
+are compared (`measure`: the model's measured states unless given).
 
 An initial state is given per state as a number, `"measured"` (the first sample; the default
 for a measured state), `"derivative"` (the slope at the first sample of a quadratic through the first samples of
@@ -23,16 +24,20 @@ class Observation:
     """How a fit observes and scores its recordings beyond the model (module docstring):
 
         dcjax.Observation(loss="huber:0.05", initial={"omega": "fit"}, offsets=("i_a",), delays=("u_a",))
+        dcjax.Observation(measure=("omega",))  # the DC motor with only its speed logged
 
     `loss`: a `dcjax.Loss` or its spec (`"sse"`, the default, eq. 24/27; `"l1"`; `"huber:DELTA"`);
     `initial`: state -> a number, `"measured"`, `"derivative"` or `"fit"` (a free `y0_<state>` per
     recording); `offsets`: measured channels with an additive sensor offset `offset_<channel>`;
-    `delays`: inputs with a delay `delay_<input>` in seconds. `check(model)` checks the names."""
+    `delays`: inputs with a delay `delay_<input>` in seconds; `measure`: the states compared with
+    the recordings (default: the model's `measured`; `Model.measuring`). `check(model)` checks the
+    names; `observed(model)` is the model with the compared states."""
 
     loss: Loss = dataclasses.field(default_factory=lambda: get_loss(None))
     initial: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     offsets: tuple[str, ...] = ()
     delays: tuple[str, ...] = ()
+    measure: tuple[str, ...] | None = None
 
     def __post_init__(self):
         if not isinstance(self.loss, (str, Loss)):
@@ -44,16 +49,25 @@ class Observation:
             if isinstance(names, str) or not all(isinstance(n, str) for n in names):
                 raise ValueError(f"{what} must be a list of channel names, got {names!r}")
             object.__setattr__(self, what, tuple(names))
+        if self.measure is not None:
+            if isinstance(self.measure, str) or not all(isinstance(n, str) for n in self.measure):
+                raise ValueError(f"measure must be a list of state names, got {self.measure!r}")
+            object.__setattr__(self, "measure", tuple(self.measure))
         object.__setattr__(self, "loss", get_loss(self.loss))
         object.__setattr__(self, "initial", {str(k): initial_spec(v, str(k)) for k, v in dict(self.initial).items()})
 
     @property
     def plain(self) -> bool:
         """The paper's terms: eq. 24 from the first sample, nothing offset or delayed."""
-        return self.loss == get_loss(None) and not self.initial and not self.offsets and not self.delays
+        return self.loss == get_loss(None) and not self.initial and not self.offsets and not self.delays and self.measure is None
+
+    def observed(self, model: Model) -> Model:
+        """`model` comparing the states `measure` (itself when `measure` is None)."""
+        return model if self.measure is None else model.measuring(self.measure)
 
     def check(self, model: Model) -> "Observation":
         """One-line errors for what `model` does not have; returns the observation."""
+        model = self.observed(model)
         for state, spec in self.initial.items():
             if state not in model.states:
                 raise ValueError(f"initial: unknown state {state!r}; model {model.name} has states {', '.join(model.states)}")
@@ -114,8 +128,9 @@ class Observation:
         return out
 
     def to_dict(self) -> dict:
+        measure = {} if self.measure is None else {"measure": list(self.measure)}
         return {"loss": self.loss.spec, "normalize": self.loss.normalize, "initial": dict(self.initial),
-                "offsets": list(self.offsets), "delays": list(self.delays)}  # fmt: skip
+                "offsets": list(self.offsets), "delays": list(self.delays), **measure}  # fmt: skip
 
     @classmethod
     def from_settings(cls, settings: Mapping) -> "Observation":
@@ -125,6 +140,7 @@ class Observation:
             dict(settings.get("initial") or {}),
             tuple(settings.get("offsets") or ()),
             tuple(settings.get("delays") or ()),
+            None if settings.get("measure") is None else tuple(settings["measure"]),
         )
 
 

@@ -410,8 +410,8 @@ def load_result(path: str | Path, recordings: list[Recording] | None = None, mod
         raise ValueError(f"{path}: not a result file (invalid JSON: {e})") from None
     if not isinstance(d, dict) or "params" not in d or "runs" not in d or "settings" not in d:
         raise ValueError(f"{path}: not a dcjax result file (needs params, runs and settings)")
-    m = get_model(model if model is not None else d.get("model"))
     observation = Observation.from_settings(d["settings"])
+    m = observation.observed(get_model(model if model is not None else d.get("model")))
     names = tuple(d["settings"].get("names") or m.names)
     missing = [n for n in names if n not in d["params"]]
     if missing:

@@ -225,12 +225,12 @@ def plan(
     polish: bool = False,
 ) -> Plan:
     """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others (one-line errors)."""
-    m = get_model(model)
     if observation is None:
         observation = Observation()
     if not isinstance(observation, Observation):
-        raise ValueError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=), got {observation!r}")
-    observation.check(m)
+        raise ValueError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
+    resolved = get_model(model)
+    m = observation.check(resolved).observed(resolved)
     search = Search(make_strategy(method) if not isinstance(method, Strategy) else method, memory, runs, budget, seed, polish)
     if polish and not observation.loss.least_squares:
         raise ValueError(

@@ -4,6 +4,7 @@ preprocessing (time window, decimation, switch-on trimming) recorded with the da
 
 import dataclasses
 import hashlib
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -17,21 +18,36 @@ DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space":
 TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
 
 
+MISSING = ("", "nan", "na", "n/a", "null", "none")  # a field read as NaN (as pandas' read_csv does)
+
+
 def _split(line: str, delim: str | None) -> list[str]:
     return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
 
 
 def _number(field: str, decimal: str) -> float:
+    if field.lower() in MISSING:
+        return float("nan")
     return float(field.replace(decimal, ".") if decimal != "." else field)
 
 
 def _numeric(fields: list[str], decimal: str) -> bool:
+    if all(f.lower() in MISSING for f in fields):
+        return False
     try:
         for f in fields:
             _number(f, decimal)
     except ValueError:
         return False
     return True
+
+
+def _units_row(fields: list[str]) -> bool:
+    """A line of units under the header (`s, V, A, rad/s`, `[ms]`, `(rpm)`): every field a known unit or empty."""
+    from .units import UNITS
+
+    known = {u.lower() for table in UNITS.values() for u in table} | {"", "-"}
+    return any(fields) and all(f.strip("[]()").strip().lower() in known for f in fields)
 
 
 def _detect_delimiter(lines: list[str], decimal: str) -> str | None:
@@ -48,12 +64,13 @@ def _detect_delimiter(lines: list[str], decimal: str) -> str | None:
 
 def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> dict[str, np.ndarray]:
     """Column name -> values of a delimited text file. `#` lines and a preamble are skipped: the
-    data are the trailing block of numeric rows, the header the line just before it (columns
-    are named by 0-based index where there is none)."""
+    data are the trailing block of numeric rows, the header the line just before it (or before a
+    line of units under it; columns are named by 0-based index where there is none). A delimiter
+    ending every line is dropped; an empty field or `nan`, `NA`, `null` is NaN (see `drop_nan`)."""
     if decimal not in (".", ","):
         raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
     text = path.read_text(errors="replace")
-    lines = [x for x in text.splitlines() if x.strip() and not x.lstrip().startswith("#")]
+    lines = [_without_trailing_delimiter(x) for x in text.splitlines() if x.strip() and not x.lstrip().startswith("#")]
     if not lines:
         raise ValueError(f"{path}: no data rows")
     if delimiter is None:
@@ -71,12 +88,21 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
         start -= 1
     if start == len(rows) or width < 2:
         raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+    first = start
+    if start > 1 and len(rows[start - 1]) == width == len(rows[start - 2]) and _units_row(rows[start - 1]):
+        start -= 1  # a units line under the header (not read: give the units as units=/--units)
     header = rows[start - 1] if start > 0 and len(rows[start - 1]) == width else [str(k) for k in range(width)]
     header = [h.strip().strip('"').strip("'") for h in header]
     if len(set(header)) != len(header):
         raise ValueError(f"{path}: repeated column names in the header {header}")
-    data = np.array([[_number(f, decimal) for f in r] for r in rows[start:]], dtype=np.float64)
+    data = np.array([[_number(f, decimal) for f in r] for r in rows[first:]], dtype=np.float64)
     return {h: data[:, k] for k, h in enumerate(header)}
+
+
+def _without_trailing_delimiter(line: str) -> str:
+    """`1,2,3;` -> `1,2,3` (a logger that ends every line with a delimiter)."""
+    line = line.rstrip()
+    return line[:-1].rstrip() if line.endswith((";", ",")) else line
 
 
 def read_npz(path: Path) -> dict[str, np.ndarray]:
@@ -112,7 +138,8 @@ class Reading:
     """How a file is read (not what is kept of it): `columns` channel -> column name (or 0-based
     index), `units` channel -> unit (converted to SI), `scale` channel -> factor (after the
     units), `dt` (s) or `rate` (Hz) for a file without a time column, the `delimiter` and
-    `decimal` separator of a text file, and `constants` (inputs constant in the recording).
+    `decimal` separator of a text file, `constants` (inputs constant in the recording) and
+    `drop_nan` (drop the rows with a NaN/inf in a channel read, with a one-line count).
     A fit records it with each file (result.json's `load`), so validate, simulate and design read
     a file in the fit's layout as the fit did (`Reading.from_record`)."""
 
@@ -124,6 +151,7 @@ class Reading:
     delimiter: str | None = None
     decimal: str = "."
     constants: Mapping[str, float] | None = None
+    drop_nan: bool = False
 
     @property
     def given(self) -> bool:
@@ -136,7 +164,7 @@ class Reading:
         return {
             k: (dict(v) if isinstance(v, Mapping) else v)
             for k, v in out.items()
-            if v not in (None, {}) and not (k == "decimal" and v == ".")
+            if v not in (None, {}) and v is not False and not (k == "decimal" and v == ".")
         }
 
     @classmethod
@@ -144,6 +172,16 @@ class Reading:
         """The reading a result's `load` record holds (what is kept, window/every/trim, aside)."""
         names = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in (record or {}).items() if k in names and v is not None})
+
+
+def _finite_rows(chans: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
+    """The rows where every channel is finite; a one-line warning of how many were dropped."""
+    keep = np.logical_and.reduce([np.isfinite(v) for v in chans.values()])
+    if keep.all():
+        return chans
+    bad = [c for c, v in chans.items() if not np.all(np.isfinite(v))]
+    warnings.warn(f"{where}: dropped {int((~keep).sum())} of {keep.size} rows with NaN/inf (in {', '.join(bad)})", stacklevel=3)
+    return {c: v[keep] for c, v in chans.items()}
 
 
 def sha256(path: Path) -> str:
@@ -203,6 +241,7 @@ def load_recording(
     dt: float | None = None,
     rate: float | None = None,
     constants: dict | None = None,
+    drop_nan: bool = False,
     reading: Reading | None = None,
 ) -> Recording:
     """A recording from a file, with the model's channels (default: the paper's `t, u_a, i_a,
@@ -225,14 +264,26 @@ def load_recording(
     - `window` (T0, T1) in seconds after conversion, `every` (keep every K-th sample), `trim`
       (cut before switch-on) — recorded, with the file's path and sha256, in
       `metadata["source"]`, so a saved result can reload the same data.
+    - `drop_nan`: drop the rows with a NaN/inf (an empty field, `nan`) in a channel read, with a
+      one-line warning of how many (default: such a row is a one-line error).
     - `reading`: a `Reading` holding `columns`, `units`, `scale`, `dt`, `rate`, `delimiter`,
-      `decimal` and `constants` in one object (instead of those keywords)."""
+      `decimal`, `constants` and `drop_nan` in one object (instead of those keywords)."""
     if reading is not None:
-        if (columns, units, scale, dt, rate, delimiter, decimal, constants) != (None, None, None, None, None, None, ".", None):
+        if (columns, units, scale, dt, rate, delimiter, decimal, constants, drop_nan) != (
+            None,
+            None,
+            None,
+            None,
+            None,
+            None,
+            ".",
+            None,
+            False,
+        ):
             raise ValueError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
         as_dict = lambda m: None if m is None else dict(m)
         columns, units, scale, dt, rate = as_dict(reading.columns), as_dict(reading.units), as_dict(reading.scale), reading.dt, reading.rate
-        delimiter, decimal, constants = reading.delimiter, reading.decimal, as_dict(reading.constants)
+        delimiter, decimal, constants, drop_nan = reading.delimiter, reading.decimal, as_dict(reading.constants), reading.drop_nan
     m = get_model(model)
     path = Path(path)
     if not path.is_file():
@@ -249,8 +300,11 @@ def load_recording(
     meta = read_sidecar(path)
     consts = {**(meta.get("constants") or {}), **(constants or {})}
     needed = tuple(c for c in m.channels if c not in consts or c not in m.inputs)
+    unmeasured = tuple(s for s in m.states if s not in needed)  # read where present: an initial state
     chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate,
-                            inputs=tuple(m.inputs))  # fmt: skip
+                            inputs=tuple(m.inputs), optional=unmeasured)  # fmt: skip
+    if drop_nan:
+        chans = _finite_rows(chans, path.name)
     if consts:
         meta["constants"] = consts
     limit = limit if limit is not None else meta.get("i_a_limit")
@@ -264,6 +318,6 @@ def load_recording(
         "limit": limit,
         "model": None if model is None else (m.name if isinstance(model, str) else None),
     }
-    read = Reading(columns or None, units or None, scale or None, dt, rate, delimiter, decimal, constants or None)
+    read = Reading(columns or None, units or None, scale or None, dt, rate, delimiter, decimal, constants or None, bool(drop_nan))
     load = read.to_dict() | {k: v for k, v in kept.items() if v not in (None, False)}
     return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})

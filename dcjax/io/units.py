@@ -93,15 +93,17 @@ def select_channels(
     dt: float | None = None,
     rate: float | None = None,
     inputs: tuple[str, ...] = (),
+    optional: tuple[str, ...] = (),
 ) -> dict[str, np.ndarray]:
     """Channels `needed` (and `t`) from `table` (column name -> values; columns may be named by
     header or by 0-based index), converted to SI with `units` (channel -> unit name), then
     multiplied by `scale` (channel -> factor: a gear ratio, a wheel radius, a sensor gain). With
-    `dt` (s) or `rate` (Hz) the time is t = k dt and the table needs no time column."""
+    `dt` (s) or `rate` (Hz) the time is t = k dt and the table needs no time column. Channels
+    `optional` (a state that is not compared) are read the same way where the table has them."""
     columns = dict(columns or {})
     units = dict(units or {})
     headers = list(table)
-    known = ("t", *needed)
+    known = ("t", *needed, *(c for c in optional if c not in needed))
     factors = scale_factors(scale, known, where)
     if dt is not None or rate is not None:
         if "t" in columns or "t" in factors:
@@ -125,6 +127,8 @@ def select_channels(
             if not 0 <= k < len(headers):
                 raise ValueError(f"{where}column index {k} for {c} is out of range (the file has {len(headers)} columns)")
             col = table[headers[k]]
+        elif c in optional and c not in needed and c not in columns:
+            continue
         else:
             hint = " or give the sample time with dt/--dt or rate/--rate" if c == "t" else ""
             if c in inputs:  # an input may be constant in a recording

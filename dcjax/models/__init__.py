@@ -78,13 +78,15 @@ def _import_file(path: str):
 
 
 def model_spec(model: Model) -> str:
-    """A string `get_model` resolves back: a built-in name, `module:Class` or `file.py:Class`."""
-    if type(model) is MODELS.get(model.name):
+    """A string `get_model` resolves back: a built-in name, `module:Class` or `file.py:Class` (of
+    the class a `Model.measuring` variant was made from: the observation records its channels)."""
+    cls = type(model).measuring_base or type(model)
+    if cls is MODELS.get(model.name):
         return model.name
-    module = type(model).__module__
+    module = cls.__module__
     if module.startswith(FILE_MODULE_PREFIX):
-        return f"{sys.modules[module].__file__}:{type(model).__qualname__}"
-    return f"{module}:{type(model).__qualname__}"
+        return f"{sys.modules[module].__file__}:{cls.__qualname__}"
+    return f"{module}:{cls.__qualname__}"
 
 
 __all__ = ["DC", "DCCoulomb", "MODELS", "DiscreteModel", "Model", "get_model", "model_spec"]

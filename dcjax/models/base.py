@@ -28,9 +28,13 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
 - optionally `required`: the parameters the model's physics needs (not zero), so a fit that puts
   one on its zero bound is named a failed fit, not an unneeded term;
 - optionally `time_constants(p)`: name -> seconds (DC: La/Ra), so a sample interval longer than
-  a time constant can be flagged after the fit.
+  a time constant can be flagged after the fit;
+- optionally `derived(p)`: name -> (value, unit) that `report` prints (DC: the static speed gain,
+  the electrical and mechanical time constants).
 """
 
+import dataclasses
+import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -57,6 +61,7 @@ class Model(eqx.Module):
     derivative_of: ClassVar[dict[str, str]] = {}  # state -> the state it is the time derivative of
     follows: ClassVar[dict[str, str]] = {}  # measured channel -> the input it follows in sign
     required: ClassVar[tuple[str, ...]] = ()  # parameters the physics needs (a zero is a failed fit)
+    measuring_base: ClassVar["type[Model] | None"] = None  # the class a `measuring` variant was made from
 
     # -- what a model defines -------------------------------------------------------------
     def coefficients(self, p: dict[str, Array]) -> Any:
@@ -74,6 +79,11 @@ class Model(eqx.Module):
 
     def time_constants(self, p: dict[str, float]) -> dict[str, float]:
         """Name -> a time constant (s) of the model at `p` that the sampling must resolve."""
+        return {}
+
+    def derived(self, p: dict[str, float]) -> dict[str, tuple[float, str]]:
+        """Name -> (value, unit) of quantities derived from the parameters that a report shows
+        (DC: the static speed gain and the time constants); default none."""
         return {}
 
     def steady_state(self, p: dict[str, float], channels: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -102,6 +112,25 @@ class Model(eqx.Module):
     def channels(self) -> tuple[str, ...]:
         """Every channel a recording must hold for this model: inputs, then measured states."""
         return tuple(self.inputs) + self.outputs
+
+    def measuring(self, channels) -> "Model":
+        """This model comparing only the states `channels` with a recording (`--measure omega`:
+        the DC motor with its speed logged alone), as a subclass with `measured = channels` would
+        (`class DCSpeed(dcjax.DC): measured = ("omega",)`); one class per model class and channels."""
+        channels = (channels,) if isinstance(channels, str) else tuple(channels)
+        bad = [c for c in channels if c not in self.states]
+        if not channels or bad or len(set(channels)) != len(channels):
+            why = (
+                f"{', '.join(map(repr, bad))} is not a state" if bad else "name each state once" if channels else "name at least one state"
+            )
+            raise ValueError(f"measure: {why}; model {self.name} has states {', '.join(self.states)}")
+        cls = measuring_class(type(self).measuring_base or type(self), channels)
+        if type(self) is cls:
+            return self
+        new = object.__new__(cls)
+        for f in dataclasses.fields(self):
+            object.__setattr__(new, f.name, getattr(self, f.name))
+        return new
 
     def unknown(self, names) -> list[str]:
         return [n for n in names if n not in self.names]
@@ -197,6 +226,18 @@ class Model(eqx.Module):
             return y
         k = self.states.index(self.limited_state)
         return y[:k] + (jnp.clip(y[k], -limit, limit),) + y[k + 1 :]
+
+
+@functools.cache
+def measuring_class(base: type[Model], channels: tuple[str, ...]) -> type[Model]:
+    """`base` with `measured = channels` (`Model.measuring`), made once per pair so that a fit's
+    compiled programs, keyed by the model's class, are reused; named and placed as `base`
+    (`measuring_base` says where a saved result finds it)."""
+    if tuple(base.states if base.measured is None else base.measured) == channels:
+        return base
+    attrs = {"measured": channels, "measuring_base": base, "__module__": base.__module__, "__qualname__": base.__qualname__}
+    meta: Any = type(base)  # equinox's metaclass: the subclass is a module (a pytree) like its base
+    return meta(base.__name__, (base,), attrs)
 
 
 class DiscreteModel(Model):

@@ -131,6 +131,20 @@ class DC(Model):
     def load_torque(self, p, w):
         return p["Tla"] + p["Tlb"] * w + p["Tlc"] * w * w
 
+    def derived(self, p):
+        """Eq. 6-9 at rest (d/dt = 0) and linearised with Tla = Tlc = 0: the static speed gain
+        omega/u_a = cm / (Ra Tlb + cm^2); the electrical time constant La/Ra; the mechanical
+        Ra J / (cm^2 + Ra Tlb)."""
+        Ra, La, cm, J, Tlb = (float(p[n]) for n in ("Ra", "La", "cm", "J", "Tlb"))
+        damping = Ra * Tlb + cm * cm
+        out = {}
+        if damping > 0:
+            out["static speed gain omega/u_a"] = (cm / damping, "rad/(V s)")
+            out["mechanical time constant Ra J/(cm^2 + Ra Tlb)"] = (Ra * J / damping, "s")
+        if Ra > 0:
+            out["electrical time constant La/Ra"] = (La / Ra, "s")
+        return out
+
     def time_constants(self, p):
         """The electrical time constant La/Ra (eq. 8)."""
         return {"La/Ra": float(p["La"]) / float(p["Ra"])} if float(p["Ra"]) > 0 else {}

@@ -249,6 +249,9 @@ def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float):
     return x, stderr, np.full(len(names), np.inf)
 
 
+LOG_SPAN = 1e-6  # the lower end of an automatic log-scale range that would start at 0, relative to its upper end
+
+
 def auto_range(value: float, stderr: float, nonneg: bool, scale_upper: float, preset: tuple[float, float] | None) -> tuple[float, float]:
     """The automatic search range of one parameter:
 
@@ -317,7 +320,7 @@ def initial_estimate(
     if border is not None and (not isinstance(border, (int, np.integer)) or isinstance(border, bool) or border < 0):
         raise ValueError(f"border must be a non-negative integer, got {border!r}")
     base = start if start is not None else m.parameters()
-    nonneg = np.array([math.isfinite(p.min) and p.min >= 0 for p in base.values()])
+    nonneg = np.array([p.positive or (math.isfinite(p.min) and p.min >= 0) for p in base.values()])
 
     linear = type(m).regression is not Model.regression
     n_samples = len(recording)
@@ -339,10 +342,13 @@ def initial_estimate(
         b = base[n]
         preset = (b.min, b.max) if math.isfinite(b.min) and math.isfinite(b.max) else None
         lo, hi = auto_range(float(theta[k]), float(stderr[k]), bool(nonneg[k]), float(upper[k]), preset)
+        if b.scale == "log" and not lo > 0 and hi > 0:
+            lo = hi * LOG_SPAN  # a log-scale search needs min > 0: six decades below the range's top
         v = float(theta[k])
         value = v if np.isfinite(v) and (v >= 0 or not nonneg[k]) else None
         se = float(stderr[k]) if np.isfinite(stderr[k]) else None
-        out.append(Parameter(n, value=value, min=lo, max=hi, unit=m.units.get(n, ""), precision=b.precision, stderr=se))
+        out.append(Parameter(n, value=value, min=lo, max=hi, unit=m.units.get(n, ""), precision=b.precision, stderr=se, positive=b.positive,
+                             scale=b.scale))  # fmt: skip
     return Parameters(out)
 
 

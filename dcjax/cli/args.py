@@ -184,6 +184,8 @@ def _parser() -> argparse.ArgumentParser:
         "(default: the sidecar's 'bounds', else auto)",
     )
     f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. for the DC motor Ra=0:10,J=0:0.1")
+    f.add_argument("--log", default=None, help="parameters searched on a log scale (uniform in decades; each needs a range above 0, "
+                   "e.g. --bound Tlc=1e-10:1e-5), e.g. for the DC motor Tlb,Tlc")  # fmt: skip
     f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
     f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
     f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. for the DC motor Ra=42.5,Tlc=0")

@@ -170,11 +170,13 @@ def _file_params(args, model, rec):
     if not x0:
         x0 = {n: v for n, v in start.items() if lo[model.names.index(n)] <= v <= hi[model.names.index(n)]}
     prec = _precision(args, model)
+    log = set(_names(args.log, "--log"))
+    model.check_names(log, "--log parameter")
     out = []
     for k, n in enumerate(model.names):
         value = fixed.get(n, x0.get(n))
-        out.append(Parameter(n, value=value, min=float(lo[k]), max=float(hi[k]), vary=n not in fixed,
-                             unit=model.units.get(n, ""), precision=prec.get(n), local=n in local))  # fmt: skip
+        out.append(Parameter(n, value=value, min=float(lo[k]), max=float(hi[k]), vary=n not in fixed, unit=model.units.get(n, ""),
+                             precision=prec.get(n), local=n in local, scale="log" if n in log else "linear"))  # fmt: skip
     ranges = _named_ranges(args.bound, "--bound")
     for n in dict.fromkeys([*(k for k in ranges if _observed(k)), *(k for k in fixed_all if _observed(k)),
                             *(k for k in x0_all if _observed(k)), *(k for k in local if _observed(k))]):  # fmt: skip

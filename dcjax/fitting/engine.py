@@ -144,29 +144,34 @@ def settings_of(setup: Setup, search: Search) -> dict:
     observed = {} if setup.observation.plain and setup.layout is None else {
         **setup.observation.to_dict(), "names": list(space.names), "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),
     }  # fmt: skip
-    return observed | {
-        "recording": recs[0].name if len(recs) == 1 else [r.name for r in recs],
-        "data": [_source(r) for r in recs],
-        "model": model_spec(model),
-        "joint_weights": setup.joint_weights if weighted else None,
-        "method": search.method,
-        "integrator": integrator_spec(setup.integrator),
-        "nd": setup.integrator.substeps,
-        "weights": [float(w) for w in (setup.weights if setup.weights is not None else [1.0] * len(model.outputs))],
-        "bounds": {"lower": np.asarray(space.bounds.lower).tolist(), "upper": np.asarray(space.bounds.upper).tolist()},
-        "fixed": space.fixed,
-        "x0": start or None,
-        "runs": search.runs,
-        "budget": search.budget,
-        "seed": int(search.seed),
-        "pop_size": search.strategy.pop_size,
-        "polish": bool(search.polish),
-        "memory": None if search.memory is None else search.memory.kind,
-        "precision": None if search.memory is None else setup.physical_precision(),
-        "generations": search.generations,
-        "strategy": repr(search.strategy),
-        "ndata": int(sum(len(r) * len(model.outputs) for r in recs)),
-    }
+    log = {"log": [space.names[k] for k in space.log]} if space.log else {}  # searched on log(x)
+    return (
+        observed
+        | log
+        | {
+            "recording": recs[0].name if len(recs) == 1 else [r.name for r in recs],
+            "data": [_source(r) for r in recs],
+            "model": model_spec(model),
+            "joint_weights": setup.joint_weights if weighted else None,
+            "method": search.method,
+            "integrator": integrator_spec(setup.integrator),
+            "nd": setup.integrator.substeps,
+            "weights": [float(w) for w in (setup.weights if setup.weights is not None else [1.0] * len(model.outputs))],
+            "bounds": {"lower": np.asarray(space.bounds.lower).tolist(), "upper": np.asarray(space.bounds.upper).tolist()},
+            "fixed": space.fixed,
+            "x0": start or None,
+            "runs": search.runs,
+            "budget": search.budget,
+            "seed": int(search.seed),
+            "pop_size": search.strategy.pop_size,
+            "polish": bool(search.polish),
+            "memory": None if search.memory is None else search.memory.kind,
+            "precision": None if search.memory is None else setup.physical_precision(),
+            "generations": search.generations,
+            "strategy": repr(search.strategy),
+            "ndata": int(sum(len(r) * len(model.outputs) for r in recs)),
+        }
+    )
 
 
 def _source(r: Recording):

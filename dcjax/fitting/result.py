@@ -114,7 +114,7 @@ class FitResult:
     @property
     def space(self) -> Space:
         assert self.bounds is not None  # set in __post_init__
-        return vector_space(self.names, self.bounds, self.fixed, f"model {self.model.name}")
+        return vector_space(self.names, self.bounds, self.fixed, f"model {self.model.name}", tuple(self.settings.get("log") or ()))
 
     def integrator_used(self) -> Integrator:
         """The fitted integrator."""
@@ -297,7 +297,8 @@ class FitResult:
                 se = se if np.isfinite(se) else None  # a null direction: no standard error
             out.append(
                 Parameter(n, value=self.best_values[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
-                          unit=unit_of(n, self.model), precision=prec.get(n), stderr=se, local=base_name(n) in (self.settings.get("local") or ()))
+                          unit=unit_of(n, self.model), precision=prec.get(n), stderr=se, local=base_name(n) in (self.settings.get("local") or ()),
+                          scale="log" if n in (self.settings.get("log") or ()) else "linear")
             )  # fmt: skip
         return Parameters(out)
 

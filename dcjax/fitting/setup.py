@@ -202,7 +202,8 @@ class Plan:
         for k, n in enumerate(vec.names):
             if n in fixed and not lo[k] <= fixed[n] <= hi[k]:
                 lo[k] = hi[k] = fixed[n]
-        space = vector_space(vec.names, Bounds(lo, hi, vec.names), fixed, f"model {model.name}")
+        log = tuple(n for n, p in vec.items() if p.scale == "log")
+        space = vector_space(vec.names, Bounds(lo, hi, vec.names), fixed, f"model {model.name}", log)
         weights = channel_weights(recordings, model)
         problems = problems_of(recordings, model, integrator, weights, observation)
         x0 = starts if starts is not None else (vec.start or None)

@@ -11,6 +11,8 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
   that sets the class dicts `bounds` (`{preset: {name: (lower, upper)}}`), `precision` and
   `units` instead still works: the base class builds its presets from them;
 - `units`, `precision`: name -> unit and name -> memory precision (views of the presets for `DC`);
+- optionally `positive`: the parameters never below 0 (automatic ranges and first estimates keep
+  the sign; a preset's `Parameter(positive=True, scale="log")` says it per preset);
 - `quantities`: channel -> physical quantity (`dcjax.io.units.UNITS`), so a loader can convert units;
 - `limited_state`: the state the supply's limit clamps after every sub-step (`"i_a"` for a drive
   with a current limit), or None;
@@ -62,6 +64,7 @@ class Model(eqx.Module):
     follows: ClassVar[dict[str, str]] = {}  # measured channel -> the input it follows in sign
     required: ClassVar[tuple[str, ...]] = ()  # parameters the physics needs (a zero is a failed fit)
     measuring_base: ClassVar["type[Model] | None"] = None  # the class a `measuring` variant was made from
+    positive: ClassVar[tuple[str, ...]] = ()  # parameters never below 0 (a model without presets: `Parameter(positive=True)`)
 
     # -- what a model defines -------------------------------------------------------------
     def coefficients(self, p: dict[str, Array]) -> Any:
@@ -185,7 +188,9 @@ class Model(eqx.Module):
         presets = self.presets()
         if preset is None and not presets:
             prec = self.memory_precision or {}
-            return Parameters([Parameter(n, unit=self.units.get(n, ""), precision=prec.get(n)) for n in self.names])
+            return Parameters(
+                [Parameter(n, unit=self.units.get(n, ""), precision=prec.get(n), positive=n in self.positive) for n in self.names]
+            )
         if not presets:
             raise ValueError(f"model {self.name} has no parameter presets; give bounds explicitly")
         key = next(iter(presets)) if preset is None else str(preset).lower()

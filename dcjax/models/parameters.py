@@ -25,8 +25,11 @@ _UNSET = object()
 @dataclasses.dataclass(eq=False)
 class Parameter:
     """One parameter: `value` (None: not known; a varying parameter's value seeds the search),
-    range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`, and
-    `local` (a joint fit gives each recording its own value, searched with the shared ones)."""
+    range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`,
+    `local` (a joint fit gives each recording its own value, searched with the shared ones),
+    `positive` (never below 0: automatic ranges and first estimates keep its sign) and `scale`
+    ("linear", or "log": searched and polished on log(value), uniform in decades between `min` > 0
+    and `max`; implies `positive`)."""
 
     name: str
     value: float | None = None
@@ -37,8 +40,16 @@ class Parameter:
     precision: float | None = None
     stderr: float | None = None
     local: bool = False
+    positive: bool = False
+    scale: str = "linear"
 
-    def set(self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET, local=_UNSET) -> "Parameter":
+    def __post_init__(self):
+        self.set(positive=self.positive, scale=self.scale)
+
+    def set(
+        self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET, local=_UNSET, positive=_UNSET,
+        scale=_UNSET,
+    ) -> "Parameter":  # fmt: skip
         """Change fields by keyword (lmfit's `Parameter.set`); returns the parameter."""
         for field, v in (("value", value), ("min", min), ("max", max), ("precision", precision), ("stderr", stderr)):
             if v is _UNSET:
@@ -46,11 +57,20 @@ class Parameter:
             if v is not None or field in ("value", "precision", "stderr"):
                 v = None if v is None else _number(v, f"{self.name}.{field}", allow_inf=field in ("min", "max"))
             setattr(self, field, v)
-        for field, v in (("vary", vary), ("local", local)):
+        for field, v in (("vary", vary), ("local", local), ("positive", positive)):
             if v is not _UNSET:
                 if not isinstance(v, (bool, np.bool_)):
                     raise ValueError(f"{self.name}.{field} must be True or False, got {v!r}")
                 setattr(self, field, bool(v))
+        if scale is not _UNSET:
+            if scale not in ("linear", "log"):
+                raise ValueError(f"{self.name}.scale must be 'linear' or 'log', got {scale!r}")
+            self.scale = scale
+            self.positive = self.positive or scale == "log"
+        if self.positive and self.min == -math.inf:
+            self.min = 0.0  # a positive parameter's range starts at 0 unless given
+        if self.positive and self.min < 0:
+            raise ValueError(f"{self.name} is positive: its min must be >= 0, got {self.min:g}")
         return self
 
     # -- the value in arithmetic (lmfit's Parameter does the same) ------------------------------
@@ -69,7 +89,8 @@ class Parameter:
         se = "" if self.stderr is None else f" +/- {self.stderr:.3g}"
         fixed = "" if self.vary else " (fixed)"
         local = " (local)" if self.local else ""
-        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}{local}>"
+        flags = " (log)" if self.scale == "log" else " (positive)" if self.positive else ""
+        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}{local}{flags}>"
 
     def __eq__(self, other) -> bool:
         """Another `Parameter`: every field equal; a number: the value equal."""

@@ -16,12 +16,26 @@ from .bounds import Bounds
 
 
 class Space(eqx.Module):
-    """x[free] = lower + z (upper - lower); x[fixed] = the fixed values."""
+    """x[free] = lower + z (upper - lower), or lower (upper / lower)^z for a log-scale one;
+    x[fixed] = the fixed values."""
 
     bounds: Bounds  # full bounds (P,), fixed parameters at their value
     values: Float[Array, " P"]  # the fixed values (free entries: 0)
     free: tuple[int, ...] = eqx.field(static=True)
     names: tuple[str, ...] = eqx.field(static=True)
+    log: tuple[int, ...] = eqx.field(static=True, default=())  # free parameters searched on log(x) (`Parameter(scale="log")`)
+
+    def _log_mask(self) -> np.ndarray:
+        return np.array([k in self.log for k in self.free])
+
+    def _free_physical(self, z: Float[Array, "*batch D"]) -> Float[Array, "*batch D"]:
+        lo, hi = self.lower, self.upper
+        x = lo + z * (hi - lo)
+        if not self.log:
+            return x
+        mask = self._log_mask()
+        llo, lhi = jnp.log(jnp.where(mask, lo, 1.0)), jnp.log(jnp.where(mask, hi, 1.0))
+        return jnp.where(mask, jnp.exp(llo + z * (lhi - llo)), x)
 
     @property
     def dim(self) -> int:
@@ -47,9 +61,11 @@ class Space(eqx.Module):
 
     def to_physical(self, z: Float[Array, "*batch D"]) -> Float[Array, "*batch P"]:
         """The full parameter vector of unit-cube point(s) `z` of the free parameters."""
-        if len(self.free) == len(self.names):
+        if len(self.free) == len(self.names) and not self.log:
             return self.bounds.to_physical(z)
-        xf = self.lower + z * (self.upper - self.lower)
+        xf = self._free_physical(z)
+        if len(self.free) == len(self.names):
+            return xf
         cols, j = [], 0
         for k in range(len(self.names)):
             if k in self.free:
@@ -64,7 +80,13 @@ class Space(eqx.Module):
         x = jnp.asarray(x)
         lo, hi = self.lower, self.upper
         width = jnp.where(hi > lo, hi - lo, 1.0)
-        return (x[..., jnp.asarray(self.free, dtype=int)] - lo) / width
+        xf = x[..., jnp.asarray(self.free, dtype=int)]
+        z = (xf - lo) / width
+        if not self.log:
+            return z
+        mask = self._log_mask()
+        llo, lhi = jnp.log(jnp.where(mask, lo, 1.0)), jnp.log(jnp.where(mask, hi, 2.0))
+        return jnp.where(mask, (jnp.log(jnp.where(mask, xf, 1.0)) - llo) / (lhi - llo), z)
 
     def free_of(self, v) -> np.ndarray:
         """The free entries of a full (P,) vector."""
@@ -79,8 +101,11 @@ def make_space(model: Model, bounds: Bounds, fixed: Mapping[str, float] | None =
     return vector_space(tuple(model.names), bounds, fixed, f"model {model.name}")
 
 
-def vector_space(names: tuple[str, ...], bounds: Bounds, fixed: Mapping[str, float] | None = None, what: str = "the fit") -> Space:
-    """`make_space` over any named vector (a fit's search vector: the model's parameters and more)."""
+def vector_space(
+    names: tuple[str, ...], bounds: Bounds, fixed: Mapping[str, float] | None = None, what: str = "the fit", log: tuple[str, ...] = ()
+) -> Space:
+    """`make_space` over any named vector (a fit's search vector: the model's parameters and more);
+    `log`: the names searched on log(x) (each free one needs a lower bound > 0)."""
     fixed = dict(fixed or {})
     lo, hi = np.array(bounds.lower), np.array(bounds.upper)
     values = np.zeros(len(names))
@@ -98,4 +123,9 @@ def vector_space(names: tuple[str, ...], bounds: Bounds, fixed: Mapping[str, flo
     free = tuple(int(k) for k in np.flatnonzero(lo < hi))
     if not free:
         raise ValueError(f"every parameter of {what} is fixed; nothing to identify")
-    return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names))
+    logs = tuple(k for k in free if names[k] in log)
+    bad = [f"{names[k]} (min {lo[k]:g})" for k in logs if not lo[k] > 0]
+    if bad:
+        raise ValueError(f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
+                         "give one with bounds=/--bound NAME=LO:HI")  # fmt: skip
+    return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names), logs)

@@ -29,7 +29,7 @@ from .fitting.setup import with_weights  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402
 from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
-from .models import DC, MODELS, DCCoulomb, DiscreteModel, Model, get_model  # noqa: E402
+from .models import DC, MODELS, PMSM, DCCoulomb, DiscreteModel, Model, get_model  # noqa: E402
 from .models.bounds import Bounds  # noqa: E402
 from .models.parameters import Parameter, Parameters  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
@@ -46,6 +46,7 @@ __all__ = [
     "DiscreteModel",
     "DC",
     "DCCoulomb",
+    "PMSM",
     "MODELS",
     "get_model",
     "Bounds",

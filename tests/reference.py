@@ -62,10 +62,10 @@ def input_at(t, u, tau, delays):
     return np.array([np.interp(tau - delays[j], t, u[:, j]) for j in range(u.shape[1])])
 
 
-def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limited=None):
+def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limited=None, clamp=None):
     """(N, S): the states at the sample instants `t`, RK4 over `substeps` equal sub-steps per
     interval, the inputs `u` (N, M) read at every stage time as `input_at`. `limit`: |y[limited]|
-    clamped to it after every sub-step."""
+    clamped to it after every sub-step; `clamp`: y -> y applied after every sub-step instead."""
     t = np.asarray(t, float)
     u = np.asarray(u, float).reshape(len(t), -1)
     d = np.zeros(u.shape[1]) if delays is None else np.asarray(delays, float)
@@ -84,6 +84,8 @@ def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limite
             y = y + hs / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
             if limit is not None:
                 y[limited] = np.clip(y[limited], -limit, limit)
+            if clamp is not None:
+                y = clamp(y)
         out[k] = y
     return out
 

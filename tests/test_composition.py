@@ -196,4 +196,6 @@ def test_7_limit_on_a_model_without_a_clamp_is_one_line(tmp_path, capsys):
     model = f"{ref.__file__.replace('reference.py', 'matrix_models.py')}:PMSM"
     assert cli.main(["fit", str(data), "--model", model, "--const", "pp=4", "--limit", "50", *TINY, "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["dcjax: error: --limit: model PMSM clamps no state (it has no Model.limited_state); its states are id, iq, w"]
+    assert err == [
+        "dcjax: error: --limit: model PMSM clamps no state (it has no Model.limited_state or clamp of its own); its states are id, iq, w"
+    ]

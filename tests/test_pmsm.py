@@ -4,6 +4,7 @@ recovers the truth, `design` and the CLI with its per-recording constants."""
 
 import time
 
+import matrix_models
 import numpy as np
 import pytest
 import reference as ref
@@ -44,6 +45,28 @@ def test_trajectories_equal_the_numpy_reference_and_the_estimate_is_a_regression
     for n, v in TRUTH.items():  # noise-free: the equation error of the filtered derivatives only
         assert est[n].value == pytest.approx(v, rel=0.05) and 0 < est[n].min < v < est[n].max, (n, est[n])
     assert set(model.derived(TRUTH)) == {"electrical time constant Ld/Rs", "electrical time constant Lq/Rs", "mechanical time constant J/B"}
+
+
+def test_the_current_vector_limit_equals_the_reference_clamp():
+    """`Recording(limit=...)` clamps sqrt(id^2 + iq^2) after every sub-step, as the reference's
+    own NumPy clamp does; without it the currents exceed the limit."""
+    rec = recording()
+    limit = 0.8 * float(np.max(np.hypot(rec["id"], rec["iq"])))
+
+    def clamp(y):
+        m = np.hypot(y[0], y[1])
+        return y if m <= limit else np.array([y[0] * limit / m, y[1] * limit / m, y[2]])
+
+    t = rec.t
+    u = np.column_stack([rec["ud"], rec["uq"], rec["pp"], rec["Tl"]])
+    y = ref.simulate(field, TRUTH, t, u, np.zeros(3), substeps=8, clamp=clamp)
+    prob = dcjax.make_problem(
+        rec.replace(limit=limit), dcjax.RK4(substeps=8), model=dcjax.PMSM(), initial={"id": 0.0, "iq": 0.0, "omega": 0.0}
+    )
+    sim = np.asarray(dcjax.simulate(TRUTH, prob))
+    assert np.max(np.abs(sim - y) / np.max(np.abs(y), axis=0)) < 1e-10
+    assert np.max(np.hypot(sim[:, 0], sim[:, 1])) == pytest.approx(limit, rel=1e-12)
+    assert dcjax.PMSM().has_limit and dcjax.DC().measuring("omega").has_limit and not matrix_models.PMSM().has_limit
 
 
 @pytest.mark.slow

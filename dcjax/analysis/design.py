@@ -198,8 +198,8 @@ def design_input(
     x = jnp.asarray([float(params[k]) for k in m.names])
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = jnp.asarray([scales[k] for k in free_names])
-    if limit is not None and m.limited_state is None:
-        raise ValueError(f"limit: model {m.name} clamps no state (it has no Model.limited_state)")
+    if limit is not None and not m.has_limit:
+        raise ValueError(f"limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
     base = template_problem(m, params, t, np.tile(hi, (n, 1)), limit, given, names)  # a full step: its peaks set the default noise
     sigma = _noise(m, base, noise)
     crit = criterion if criterion in ("d", "a") else "names"

@@ -18,10 +18,10 @@ def design_cmd(args) -> int:
     if noise is None:
         noise = noise_from_fit(res)
     rec = res.recording
-    if args.limit is not None and m.limited_state is None:
-        raise ValueError(f"--limit: model {m.name} clamps no state (it has no Model.limited_state)")
+    if args.limit is not None and not m.has_limit:
+        raise ValueError(f"--limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
     limit = args.limit if args.limit is not None else res.settings.get("i_limit") or (rec.limit if rec is not None else None)
-    limit = limit if m.limited_state is not None else None
+    limit = limit if m.has_limit else None
     for name, v in (("--starts", args.starts), ("--steps", args.steps)):
         if v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v}")

@@ -108,8 +108,8 @@ def _options(args, model) -> dict:
     else:
         step = INTEGRATORS[args.integrator or "rk4"]
         integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
-    if args.limit is not None and model.limited_state is None:
-        raise ValueError(f"--limit: model {model.name} clamps no state (it has no Model.limited_state); its states are "
+    if args.limit is not None and not model.has_limit:
+        raise ValueError(f"--limit: model {model.name} clamps no state (it has no Model.limited_state or clamp of its own); its states are "
                          f"{', '.join(model.states)}")  # fmt: skip
     if args.local is not None and (args.each or len(args.data) < 2):
         raise ValueError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")

@@ -307,7 +307,7 @@ def load_recording(
         chans = _finite_rows(chans, path.name)
     if consts:
         meta["constants"] = consts
-    limit = limit if limit is not None else meta.get("i_a_limit")
+    limit = limit if limit is not None else meta.get("limit", meta.get("i_a_limit"))
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
     rec = preprocess(rec, window, every, trim, m)

@@ -45,7 +45,7 @@ def _constants(given, where: str = "") -> dict[str, float]:
 
 class Recording:
     """A validated response: strictly increasing time `t` (s), equally long finite channels,
-    the clamp `limit` on the model's `limited_state` (for the DC models the supply's current
+    the clamp `limit` of the model (`Model.clamp`: on its `limited_state`, or its own; for the DC models the supply's current
     limit in A) or None, a name and
     free-form metadata.
 

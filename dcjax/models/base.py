@@ -15,7 +15,7 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
   the sign; a preset's `Parameter(positive=True, scale="log")` says it per preset);
 - `quantities`: channel -> physical quantity (`dcjax.io.units.UNITS`), so a loader can convert units;
 - `limited_state`: the state the supply's limit clamps after every sub-step (`"i_a"` for a drive
-  with a current limit), or None;
+  with a current limit), or None; or a `clamp(y, limit)` of its own (the PMSM's current vector);
 - `coefficients(p)`: hoisted per-simulation quantities (1/La, Ra/La, ...) from the parameter dict;
 - `vector_field(c, u, y)`: dy/dt as a tuple, from the coefficients, the inputs and the states;
 - optionally `steady_state(p, channels)`: the model's stationary relations (dy/dt = 0) as
@@ -225,8 +225,15 @@ class Model(eqx.Module):
             raise ValueError(f"model {self.name} defines no memory precision; pass precision= explicitly")
         return np.array([prec[n] for n in self.names], float)
 
+    @property
+    def has_limit(self) -> bool:
+        """Whether a recording's `limit` acts on this model: a `limited_state`, or a `clamp` of its own."""
+        return self.limited_state is not None or type(self).clamp is not Model.clamp
+
     def clamp(self, y: tuple[Array, ...], limit) -> tuple[Array, ...]:
-        """|y[limited_state]| <= limit (the supply's current limit, Section 4, Fig. 4)."""
+        """The model's limit after every (sub-)step, `limit` the recording's (None: none). Default
+        |y[limited_state]| <= limit (the supply's current limit, Section 4, Fig. 4); a model may
+        override it (the PMSM: the current vector's magnitude)."""
         if limit is None or self.limited_state is None:
             return y
         k = self.states.index(self.limited_state)

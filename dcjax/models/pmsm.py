@@ -8,9 +8,12 @@ motor (`dcjax.models.PMSM`, `--model pmsm`):
 with the mechanical speed omega (rad/s), the pole pairs `pp` and the load torque `Tl` inputs that
 are usually constant per recording (`Recording(constants={"pp": 4, "Tl": 0.02})`, a sidecar's
 `"constants"` or `--const pp=4,Tl=0.02`; a logged load torque is read as a column). Every
-parameter is positive; the equations are linear in them, so the first estimate is a regression."""
+parameter is positive; the equations are linear in them, so the first estimate is a regression.
+A recording's `limit` (A) clamps the current vector's magnitude after every sub-step."""
 
 from typing import ClassVar
+
+import jax.numpy as jnp
 
 from .base import Model
 
@@ -53,6 +56,16 @@ class PMSM(Model):
             ({"Lq": dy["iq"], "Rs": i_q, "Ld": we * i_d, "psi_m": we}, u["uq"], "Lq"),
             ({"J": dy["omega"], "B": w, "psi_m": -1.5 * pp * i_q, "Ld": -1.5 * pp * i_d * i_q, "Lq": 1.5 * pp * i_d * i_q}, -u["Tl"], "J"),
         ]
+
+    def clamp(self, y, limit):
+        """The drive's current limit on the current vector: sqrt(id^2 + iq^2) <= limit, scaled
+        along the vector (the angle kept); `Recording(limit=...)` / `--limit` in A."""
+        if limit is None:
+            return y
+        i_d, i_q, w = y
+        magnitude = jnp.sqrt(i_d * i_d + i_q * i_q)
+        scale = jnp.where(magnitude > limit, limit / jnp.maximum(magnitude, 1e-300), 1.0)
+        return i_d * scale, i_q * scale, w
 
     def time_constants(self, p):
         """The electrical time constants Ld/Rs and Lq/Rs."""

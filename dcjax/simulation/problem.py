@@ -25,7 +25,7 @@ class Problem(eqx.Module):
     u_end: Float[Array, "n-1 m"]
     y_meas: Float[Array, "n c"]  # the model's measured states (`model.outputs`)
     y0: Float[Array, " s"]  # initial state
-    limit: Float[Array, ""] | None  # on `model.limited_state`
+    limit: Float[Array, ""] | None  # the model's clamp (`Model.clamp`: on `model.limited_state` by default)
     scale: Float[Array, " c"]  # w_c / (N * max|y_c|^2) (w_c / N without normalisation)
     integrator: Integrator = RK4()
     norm: Float[Array, " c"] | None = None  # 1 / max|y_c| (1 without normalisation); None: the default SSE
@@ -80,7 +80,7 @@ def make_problem(
     - `voltage`: a constant first input (step response) instead of the recorded one.
     - `loss`: a `dcjax.Loss` (`SSE()`, the default: eq. 24/27; `L1()`, `Huber(delta)`; each
       normalised by the channel's peak or not), or its spec (`"l1"`, `"huber:0.1"`).
-    - The supply's limit on `model.limited_state` is the recording's `limit` (None: no limit;
+    - The supply's limit (`model.clamp`: on `model.limited_state`, or the model's own) is the recording's `limit` (None: no limit;
       `recording.replace(limit=...)` for another).
     """
     model = get_model(model)
@@ -139,7 +139,7 @@ def make_problem(
         u_end=f64(u[1:]),
         y_meas=f64(y),
         y0=f64(y0),
-        limit=None if limit is None or model.limited_state is None else f64(limit),
+        limit=None if limit is None or not model.has_limit else f64(limit),
         scale=f64(w / (n * peak**2) if loss.normalize == "peak" else w / n),
         integrator=integrator,
         unroll=int(unroll),

@@ -56,16 +56,22 @@ def pmsm_encoder_field(p, u, y):
 # -- the simulation ------------------------------------------------------------------------------
 
 
-def input_at(t, u, tau, delays):
+def input_at(t, u, tau, delays, held=()):
     """Every input at time `tau`: input j read at tau - d_j by linear interpolation on the
-    samples (eq. 29), held at its first (last) sample before (after) the recording."""
-    return np.array([np.interp(tau - delays[j], t, u[:, j]) for j in range(u.shape[1])])
+    samples (eq. 29), held at its first (last) sample before (after) the recording; an input in
+    `held` (a zero-order hold) is its last sample at or before tau - d_j."""
+    out = np.array([np.interp(tau - delays[j], t, u[:, j]) for j in range(u.shape[1])])
+    for j in held:
+        out[j] = u[min(max(int(np.searchsorted(t, tau - delays[j], side="right")) - 1, 0), len(t) - 1), j]
+    return out
 
 
-def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limited=None, clamp=None):
+def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limited=None, clamp=None, held=()):
     """(N, S): the states at the sample instants `t`, RK4 over `substeps` equal sub-steps per
     interval, the inputs `u` (N, M) read at every stage time as `input_at`. `limit`: |y[limited]|
-    clamped to it after every sub-step; `clamp`: y -> y applied after every sub-step instead."""
+    clamped to it after every sub-step; `clamp`: y -> y applied after every sub-step instead.
+    An input in `held` is constant over each sub-step, its value at the sub-step's middle (exact
+    where the delayed steps t_j + d fall on sub-step boundaries, as the tests' delays do)."""
     t = np.asarray(t, float)
     u = np.asarray(u, float).reshape(len(t), -1)
     d = np.zeros(u.shape[1]) if delays is None else np.asarray(delays, float)
@@ -77,6 +83,8 @@ def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limite
         for s in range(substeps):
             tau = t[k - 1] + s * hs
             ua, um, ub = (input_at(t, u, tau + a * hs, d) for a in (0.0, 0.5, 1.0))
+            for j in held:
+                ua[j] = ub[j] = um[j] = input_at(t, u, tau + 0.5 * hs, d, held)[j]
             k1 = field(p, ua, y)
             k2 = field(p, um, y + 0.5 * hs * k1)
             k3 = field(p, um, y + 0.5 * hs * k2)
@@ -90,7 +98,7 @@ def simulate(field, p, t, u, y0, *, substeps=64, delays=None, limit=None, limite
     return out
 
 
-def iterate(update, p, t, u, y0, *, delays=None):
+def iterate(update, p, t, u, y0, *, delays=None, held=()):
     """(N, S): a discrete-time model's map applied once per interval, y_k = update(p, u(t_{k-1} -
     d), y_{k-1}, t_k - t_{k-1}), the inputs read at the interval's start as `input_at`."""
     t = np.asarray(t, float)
@@ -99,7 +107,7 @@ def iterate(update, p, t, u, y0, *, delays=None):
     out = np.empty((len(t), len(y0)))
     out[0] = y = np.array(y0, float)
     for k in range(1, len(t)):
-        y = update(p, input_at(t, u, t[k - 1], d), y, t[k] - t[k - 1])
+        y = update(p, input_at(t, u, t[k - 1], d, held), y, t[k] - t[k - 1])
         out[k] = y
     return out
 

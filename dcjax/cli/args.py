@@ -102,6 +102,8 @@ def _add_experiment_options(f: argparse.ArgumentParser) -> None:
         "--local", default=None,
         help="parameters with one value per recording of a joint fit, e.g. for the DC motor Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
     )  # fmt: skip
+    g.add_argument("--hold", default=None, help="how an input acts between its samples, INPUT=linear|zoh pairs (default linear, "
+                   "eq. 29; zoh: held until the next sample, as a drive's PWM updated once per sample), e.g. for the DC motor u_a=zoh")  # fmt: skip
     g.add_argument("--measure", default=None, help="the states compared with the recording (default: the model's measured states), "
                    "e.g. for the DC motor with only its speed logged omega; a column named after another state still gives its initial state")  # fmt: skip
     g.add_argument("--offset", default=None, help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "

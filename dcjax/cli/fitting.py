@@ -118,7 +118,8 @@ def _options(args, model) -> dict:
         strategy = dataclasses.replace(strategy, generations=args.generations)
     observation = Observation(get_loss(args.loss or "sse", args.normalize), parse_mapping(args.initial, "--initial"),
                               _names(args.offset, "--offset"), _names(args.delay, "--delay"),
-                              None if args.measure is None else _names(args.measure, "--measure"))  # fmt: skip
+                              None if args.measure is None else _names(args.measure, "--measure"),
+                              parse_mapping(args.hold, "--hold"))  # fmt: skip
     return dict(method=strategy, integrator=integrator, runs=args.runs, budget=args.budget, seed=args.seed,
                 memory=None if args.memory is None else MEMORIES[args.memory], polish=args.polish, observation=observation)  # fmt: skip
 

@@ -1,6 +1,7 @@
 """How a fit observes and scores its recordings beyond the model: the `Loss`, each state's
-initial value, sensor offsets on measured channels, delays of inputs (issue 28) and which states
-are compared (`measure`: the model's measured states unless given).
+initial value, sensor offsets on measured channels, delays of inputs (issue 28), which states
+are compared (`measure`: the model's measured states unless given) and how each input acts
+between its samples (`hold`: linear, eq. 29, or a zero-order hold).
 
 An initial state is given per state as a number, `"measured"` (the first sample; the default
 for a measured state), `"derivative"` (the slope at the first sample of a quadratic through the first samples of
@@ -30,7 +31,8 @@ class Observation:
     `initial`: state -> a number, `"measured"`, `"derivative"` or `"fit"` (a free `y0_<state>` per
     recording); `offsets`: measured channels with an additive sensor offset `offset_<channel>`;
     `delays`: inputs with a delay `delay_<input>` in seconds; `measure`: the states compared with
-    the recordings (default: the model's `measured`; `Model.measuring`). `check(model)` checks the
+    the recordings (default: the model's `measured`; `Model.measuring`); `hold`: input -> "zoh"
+    for an input held between samples (default "linear", eq. 29). `check(model)` checks the
     names; `observed(model)` is the model with the compared states."""
 
     loss: Loss = dataclasses.field(default_factory=lambda: get_loss(None))
@@ -38,6 +40,7 @@ class Observation:
     offsets: tuple[str, ...] = ()
     delays: tuple[str, ...] = ()
     measure: tuple[str, ...] | None = None
+    hold: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         if not isinstance(self.loss, (str, Loss)):
@@ -49,6 +52,11 @@ class Observation:
             if isinstance(names, str) or not all(isinstance(n, str) for n in names):
                 raise ValueError(f"{what} must be a list of channel names, got {names!r}")
             object.__setattr__(self, what, tuple(names))
+        if not isinstance(self.hold, Mapping) or any(str(v).lower() not in ("linear", "zoh") for v in self.hold.values()):
+            raise ValueError(
+                f"hold must be an input -> linear|zoh mapping, got {dict(self.hold) if isinstance(self.hold, Mapping) else self.hold!r}"
+            )
+        object.__setattr__(self, "hold", {str(k): "zoh" for k, v in self.hold.items() if str(v).lower() == "zoh"})
         if self.measure is not None:
             if isinstance(self.measure, str) or not all(isinstance(n, str) for n in self.measure):
                 raise ValueError(f"measure must be a list of state names, got {self.measure!r}")
@@ -59,7 +67,14 @@ class Observation:
     @property
     def plain(self) -> bool:
         """The paper's terms: eq. 24 from the first sample, nothing offset or delayed."""
-        return self.loss == get_loss(None) and not self.initial and not self.offsets and not self.delays and self.measure is None
+        return (
+            self.loss == get_loss(None)
+            and not self.initial
+            and not self.offsets
+            and not self.delays
+            and self.measure is None
+            and not self.hold
+        )
 
     def observed(self, model: Model) -> Model:
         """`model` comparing the states `measure` (itself when `measure` is None)."""
@@ -77,6 +92,9 @@ class Observation:
         bad = [c for c in self.offsets if c not in model.outputs]
         if bad:
             raise ValueError(f"offset: {', '.join(bad)} is not a measured channel of model {model.name} ({', '.join(model.outputs)})")
+        bad = [c for c in self.hold if c not in model.inputs]
+        if bad:
+            raise ValueError(f"hold: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
         bad = [c for c in self.delays if c not in model.inputs]
         if bad:
             raise ValueError(f"delay: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
@@ -129,8 +147,9 @@ class Observation:
 
     def to_dict(self) -> dict:
         measure = {} if self.measure is None else {"measure": list(self.measure)}
+        hold = {"hold": dict(self.hold)} if self.hold else {}
         return {"loss": self.loss.spec, "normalize": self.loss.normalize, "initial": dict(self.initial),
-                "offsets": list(self.offsets), "delays": list(self.delays), **measure}  # fmt: skip
+                "offsets": list(self.offsets), "delays": list(self.delays), **measure, **hold}  # fmt: skip
 
     @classmethod
     def from_settings(cls, settings: Mapping) -> "Observation":
@@ -141,6 +160,7 @@ class Observation:
             tuple(settings.get("offsets") or ()),
             tuple(settings.get("delays") or ()),
             None if settings.get("measure") is None else tuple(settings["measure"]),
+            dict(settings.get("hold") or {}),
         )
 
 

@@ -150,7 +150,7 @@ class FitResult:
         obs, fitted = self.observation, self._fitted(recordings)
         return [
             make_problem(r, self.integrator, self.weights, model=self.model, loss=obs.loss if loss is None else loss,
-                         initial=obs.initial_values(self.model, r, fitted))
+                         initial=obs.initial_values(self.model, r, fitted), hold=dict(obs.hold))
             for r in recs
         ]  # fmt: skip
 

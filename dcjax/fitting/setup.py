@@ -163,8 +163,8 @@ class Setup:
 
 def problems_of(recordings, model: Model, integrator: Integrator, weights, observation: Observation) -> list[Problem]:
     """Each recording's `Problem` under the observation (its loss, the initial states not fitted)."""
-    return [make_problem(r, integrator, weights, model=model, loss=observation.loss, initial=observation.initial_values(model, r))
-            for r in recordings]  # fmt: skip
+    return [make_problem(r, integrator, weights, model=model, loss=observation.loss, initial=observation.initial_values(model, r),
+                         hold=dict(observation.hold)) for r in recordings]  # fmt: skip
 
 
 # -- what every recording of a fit shares --------------------------------------------------------
@@ -192,9 +192,11 @@ class Plan:
             raise ValueError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
         local_fit = len(recordings) > 1 and any(p.local for p in own.values())
         if isinstance(self.integrator, AutoSubsteps) and (
-            local_fit or observation.fitted_states() or observation.offsets or observation.delays
+            local_fit or observation.fitted_states() or observation.offsets or observation.delays or observation.hold
         ):
-            raise ValueError("nd auto: not with local parameters, fitted initial states, offsets or delays; give the sub-steps (--nd N)")
+            raise ValueError(
+                "nd auto: not with local parameters, fitted initial states, offsets, delays or held inputs; give the sub-steps (--nd N)"
+            )
         integrator = self.integrator.integrator if isinstance(self.integrator, AutoSubsteps) else self.integrator
         layout, vec = search_vector(model, recordings, own, extras, observation)
         fixed = vec.fixed

@@ -3,7 +3,8 @@ model's parameters (issue 28): a fitted initial state, additive sensor offsets o
 channels and fractional delays of inputs.
 
 A delay d (seconds) of input u replaces u(t) by u(t - d), the same eq. 29 interpolation of the
-samples shifted in time (held at its first sample before the recording starts). The delayed
+samples shifted in time (held at its first sample before the recording starts; an input held
+between samples, `Problem.held`, is shifted as the step it is). The delayed
 input is linear between its own knots t_j + d, which fall inside the sample intervals: an ODE
 model's interval is split at those knots (`input_pieces`), so every piece has a linear input and
 the integration is as exact as on an undelayed interval. A discrete-time model reads its inputs
@@ -44,26 +45,27 @@ def _batch_last(a):
 
 def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
     """Each sample interval as pieces with a linear input: `(lengths, inputs)`, `lengths` (n-1,
-    *batch, K) and `inputs` a tuple over the model's inputs of (n-1, *batch, K+1) values at the
-    pieces' ends.
+    *batch, K) and `inputs` a tuple over the model's inputs of (n-1, *batch, K, 2) values at each
+    piece's start and end.
 
-    Without a delay one piece, the interval and its samples (eq. 29). With delays (an ODE model)
-    the interval [t_{k-1}, t_k] is split at the knots t_j + d of every delayed input that fall
-    inside it (`Problem.knots` per input; a slot without a knot has length 0), and each input is
-    read as u(tau - d) at the pieces' ends. A discrete-time model: one piece, its inputs read at
-    t_{k-1} - d and t_k - d."""
+    Without a delay one piece, the interval and its samples (eq. 29; a held input's start value
+    twice). With delays (an ODE model) the interval [t_{k-1}, t_k] is split at the knots t_j + d
+    of every delayed input that fall inside it (`Problem.knots` per input; a slot without a knot
+    has length 0), and each input is read as u(tau - d) at the pieces' ends (a held input: its
+    sample before tau - d at the piece's middle, constant over the piece). A discrete-time model:
+    one piece, its inputs read at t_{k-1} - d and t_k - d."""
     from ..models.base import DiscreteModel
 
     m = problem.u_start.shape[1]
     delay = None if adjustments is None else adjustments.delay
     if delay is None:
-        return problem.h[:, None], tuple(jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1) for j in range(m))
+        return problem.h[:, None], tuple(jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1)[:, None] for j in range(m))
     t, u = sample_times(problem), _samples(problem)
     batch = delay.shape[:-1]
     if isinstance(problem.model, DiscreteModel):
-        read = [_batch_last(jnp.interp(t - delay[..., j, None], t, u[:, j])) for j in range(m)]  # (n, *batch)
+        read = [_batch_last(_read(j in problem.held, t, u[:, j], t - delay[..., j, None])) for j in range(m)]  # (n, *batch)
         h = jnp.broadcast_to(problem.h.reshape((-1,) + (1,) * len(batch)), (problem.h.shape[0], *batch))
-        return h[..., None], tuple(jnp.stack([r[:-1], r[1:]], axis=-1) for r in read)
+        return h[..., None], tuple(jnp.stack([r[:-1], r[1:]], axis=-1)[..., None, :] for r in read)
     delayed = adjustments.delayed or tuple(range(m))  # pyright: ignore[reportOptionalMemberAccess]
     start = t[:-1].reshape((-1,) + (1,) * len(batch))  # (n-1, 1...)
     end = t[1:].reshape((-1,) + (1,) * len(batch))
@@ -81,5 +83,18 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
     inputs = []
     for j in range(m):
         d = delay[..., j].reshape((1, *batch, 1))
-        inputs.append(jnp.interp(ends - d, t, u[:, j]))
+        if j in problem.held:  # constant over each piece: the sample before the piece's middle
+            v = _read(True, t, u[:, j], 0.5 * (ends[..., :-1] + ends[..., 1:]) - d)
+            inputs.append(jnp.stack([v, v], axis=-1))
+        else:
+            v = jnp.interp(ends - d, t, u[:, j])
+            inputs.append(jnp.stack([v[..., :-1], v[..., 1:]], axis=-1))
     return jnp.diff(ends, axis=-1), tuple(inputs)
+
+
+def _read(held: bool, t, u_j, at):
+    """u_j at the times `at`: eq. 29's interpolation (held at the first sample before the start),
+    or for a held input the sample at or before `at`."""
+    if not held:
+        return jnp.interp(at, t, u_j)
+    return u_j[jnp.clip(jnp.searchsorted(t, at, side="right") - 1, 0, t.shape[0] - 1)]

@@ -49,7 +49,7 @@ def advance_pieces(c, problem: Problem, y: State, lengths, inputs) -> State:
     """One sample interval as its pieces (`dcjax.simulation.adjustments.input_pieces`): each
     piece `advance`d with its own linear input."""
     for p in range(lengths.shape[-1]):
-        y = advance(c, problem, y, lengths[..., p], tuple(u[..., p] for u in inputs), tuple(u[..., p + 1] for u in inputs))
+        y = advance(c, problem, y, lengths[..., p], tuple(u[..., p, 0] for u in inputs), tuple(u[..., p, 1] for u in inputs))
     return y
 
 

@@ -17,7 +17,8 @@ class Problem(eqx.Module):
 
     Sample k = 0 is the initial state; interval k (k = 1..N-1) integrates from t[k-1] to
     t[k] with step h[k-1] = t[k] - t[k-1], split into `integrator.substeps` equal sub-steps
-    (eq. 28) with the inputs interpolated linearly between u[k-1] and u[k] (eq. 29)."""
+    (eq. 28) with the inputs interpolated linearly between u[k-1] and u[k] (eq. 29), or held at
+    u[k-1] for an input in `held` (u_end = u_start there)."""
 
     model: Model
     h: Float[Array, " n-1"]
@@ -33,6 +34,7 @@ class Problem(eqx.Module):
     mask: Float[Array, " n"] | None = None  # 1 for a recorded sample, 0 for padding (`dcjax.simulation.joint.padded`)
     unroll: int = eqx.field(static=True, default=1)
     knots: int = eqx.field(static=True, default=1)  # most knots of a delayed input inside one interval (`knots_per_interval`)
+    held: tuple[int, ...] = eqx.field(static=True, default=())  # inputs held between samples (zero-order hold) instead of eq. 29
 
     @property
     def n(self) -> int:
@@ -66,6 +68,7 @@ def make_problem(
     voltage: float | None = None,
     unroll: int = 1,
     loss: Loss | str | None = None,
+    hold: "dict[str, str] | None" = None,
 ) -> Problem:
     """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
 
@@ -78,6 +81,8 @@ def make_problem(
     - `initial`: initial state by state name; default the recording's first sample (a state the
       recording lacks starts at 0).
     - `voltage`: a constant first input (step response) instead of the recorded one.
+    - `hold`: input -> "linear" (eq. 29, the default) or "zoh" (held at its sample until the
+      next, as a drive's PWM updated once per sample applies it).
     - `loss`: a `dcjax.Loss` (`SSE()`, the default: eq. 24/27; `L1()`, `Huber(delta)`; each
       normalised by the channel's peak or not), or its spec (`"l1"`, `"huber:0.1"`).
     - The supply's limit (`model.clamp`: on `model.limited_state`, or the model's own) is the recording's `limit` (None: no limit;
@@ -117,6 +122,9 @@ def make_problem(
         u[:, 0] = float(voltage)
     if not np.all(np.isfinite(u)):
         raise ValueError("voltage must be finite")
+    held = held_inputs(model, hold)
+    u_end = u[1:].copy()
+    u_end[:, list(held)] = u[:-1, list(held)]
     limit = recording.limit
     if limit is not None and not limit > 0:
         raise ValueError(f"current limit must be positive, got {limit}")
@@ -136,7 +144,7 @@ def make_problem(
         model=model,
         h=f64(np.diff(t)),
         u_start=f64(u[:-1]),
-        u_end=f64(u[1:]),
+        u_end=f64(u_end),
         y_meas=f64(y),
         y0=f64(y0),
         limit=None if limit is None or not model.has_limit else f64(limit),
@@ -146,4 +154,20 @@ def make_problem(
         norm=None if type(loss) is SSE else f64(1.0 / peak if loss.normalize == "peak" else np.ones_like(peak)),
         loss=loss,
         knots=knots_per_interval(t),
+        held=held,
     )
+
+
+HOLDS = ("linear", "zoh")
+
+
+def held_inputs(model: Model, hold) -> tuple[int, ...]:
+    """The indices of the inputs `hold` (input -> "linear" | "zoh") holds; one-line errors."""
+    hold = dict(hold or {})
+    bad = [k for k in hold if k not in model.inputs]
+    if bad:
+        raise ValueError(f"hold: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
+    for k, v in hold.items():
+        if v not in HOLDS:
+            raise ValueError(f"hold: {k} must be linear or zoh, got {v!r}")
+    return tuple(j for j, c in enumerate(model.inputs) if hold.get(c) == "zoh")

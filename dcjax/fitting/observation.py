@@ -16,6 +16,7 @@ import numpy as np
 from ..io.recording import Recording
 from ..models import Model
 from ..simulation.losses import Loss, get_loss
+from ..simulation.problem import HOLDS, held_inputs
 
 SPECS = ("measured", "derivative", "fit")
 
@@ -52,7 +53,7 @@ class Observation:
             if isinstance(names, str) or not all(isinstance(n, str) for n in names):
                 raise ValueError(f"{what} must be a list of channel names, got {names!r}")
             object.__setattr__(self, what, tuple(names))
-        if not isinstance(self.hold, Mapping) or any(str(v).lower() not in ("linear", "zoh") for v in self.hold.values()):
+        if not isinstance(self.hold, Mapping) or any(str(v).lower() not in HOLDS for v in self.hold.values()):
             raise ValueError(
                 f"hold must be an input -> linear|zoh mapping, got {dict(self.hold) if isinstance(self.hold, Mapping) else self.hold!r}"
             )
@@ -92,9 +93,7 @@ class Observation:
         bad = [c for c in self.offsets if c not in model.outputs]
         if bad:
             raise ValueError(f"offset: {', '.join(bad)} is not a measured channel of model {model.name} ({', '.join(model.outputs)})")
-        bad = [c for c in self.hold if c not in model.inputs]
-        if bad:
-            raise ValueError(f"hold: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
+        held_inputs(model, self.hold)  # the hold's names, checked where make_problem checks them
         bad = [c for c in self.delays if c not in model.inputs]
         if bad:
             raise ValueError(f"delay: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")

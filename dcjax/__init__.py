@@ -29,11 +29,11 @@ from .fitting.setup import with_weights  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402
 from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402
-from .models import DC, MODELS, PMSM, DCCoulomb, DiscreteModel, Model, get_model  # noqa: E402
+from .models import DC, MODELS, PMSM, DCCoulomb, DiscreteModel, Model, Servo, get_model  # noqa: E402
 from .models.bounds import Bounds  # noqa: E402
 from .models.parameters import Parameter, Parameters  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
-from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Euler, Integrator  # noqa: E402
+from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Diffrax, Euler, Integrator  # noqa: E402
 from .simulation.losses import L1, LOSSES, SSE, Huber, Loss  # noqa: E402
 from .simulation.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
 from .strategies.memory import LTMA, MEMORIES, STMA, IndexedLTMA, MemoryAssistance  # noqa: E402
@@ -47,6 +47,7 @@ __all__ = [
     "DC",
     "DCCoulomb",
     "PMSM",
+    "Servo",
     "MODELS",
     "get_model",
     "Bounds",
@@ -70,6 +71,7 @@ __all__ = [
     "Integrator",
     "Euler",
     "RK4",
+    "Diffrax",
     "AutoSubsteps",
     "INTEGRATORS",
     "Loss",

@@ -53,6 +53,26 @@ def pmsm_encoder_field(p, u, y):
     return np.append(pmsm_field(p, u, y[:3]), y[2])
 
 
+def servo_m1_map(p, u, y, h):
+    """BAM's "m1" actuator on its pendulum bench (a Dynamixel MX under its firmware's P loop), one
+    step of h, written from the BAM paper's description: duty = clip(kp 0.158 (goal - q), +-0.9625),
+    motor torque kt vin duty / R - kt^2 dq / R, gravity -(m + m_a/2) 9.80665 l sin q, inertia
+    m l^2 + m_a l^2 / 3 + armature; the friction Fc + Fv |dq| opposes the torque that would stop the
+    joint within h, never more than it; then dq += a h (clipped to +-100) and q += dq h + a h^2 / 2."""
+    q, dq = float(y[0]), float(y[1])
+    goal, kp, vin, m, length, arm = (float(v) for v in u)
+    duty = min(max(kp * 0.158 * (goal - q), -0.9625), 0.9625)
+    motor = p["kt"] * vin * duty / p["R"] - p["kt"] ** 2 * dq / p["R"]
+    bias = (m + arm / 2.0) * -9.80665 * length * np.sin(q)
+    inertia = m * length**2 + arm * length**2 / 3.0 + p["armature"]
+    net = motor + bias
+    stop = inertia / h * dq + net
+    net += -np.sign(stop) * min(abs(stop), p["friction_base"] + p["friction_viscous"] * abs(dq))
+    a = net / inertia
+    dq = min(max(dq + a * h, -100.0), 100.0)
+    return np.array([q + dq * h + 0.5 * a * h * h, dq])
+
+
 # -- the simulation ------------------------------------------------------------------------------
 
 

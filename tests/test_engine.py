@@ -93,9 +93,17 @@ def test_the_package_paths_use_no_deprecated_name(tmp_path):
         assert main(["report", str(tmp_path / "result.json")]) == 0
 
 
-@pytest.mark.parametrize("page", ["own-strategy.md", "own-integrator.md", pytest.param("pmsm.md", marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "page",
+    [
+        "own-strategy.md",
+        "own-integrator.md",
+        pytest.param("pmsm.md", marks=pytest.mark.slow),
+        pytest.param("servo.md", marks=pytest.mark.slow),
+    ],
+)
 def test_guide_examples_run(page):
-    """The complete examples of the guide pages 'Your own strategy', 'Your own integrator' and the PMSM's."""
+    """The complete examples of the guide pages 'Your own strategy', 'Your own integrator' and the PMSM's and the servo's."""
     text = (ROOT / "docs" / "guide" / page).read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
     assert blocks

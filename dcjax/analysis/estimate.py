@@ -5,12 +5,15 @@ derivatives taken by central differences, and the model's state equations fitted
 
     m_e dy_e/dt = f_e(theta, y, u)        for every state equation e
 
-- a model linear in its parameters (`Model.regression`, both DC models) is solved by weighted
-  linear least squares, each equation weighted by 1 / rms(m_e dy_e/dt) (its inertial term, so
-  the weights do not depend on the parameters' overall scale), re-weighted a few times;
+- a model linear in its parameters, each equation after one parameter's factor m_e (written
+  out by `Model.regression`, both DC models, or found from the vector field with JAX by
+  `linear_form`), is solved by weighted linear least squares, each equation weighted by
+  1 / rms(m_e dy_e/dt) (its inertial term, so the weights do not depend on the parameters'
+  overall scale), re-weighted a few times;
 - any other model by Levenberg–Marquardt (optimistix) on the derivative residual
-  (dy/dt - f(theta, y, u)) / rms(dy/dt), non-negative parameters as theta = phi^2, from 64
-  starts (vmapped; the range midpoints and points log-uniform over six decades, fixed seed).
+  (dy/dt - f(theta, y, u)) / rms(dy/dt) at LM_ROWS rows at most, non-negative parameters as
+  theta = phi^2: from 64 starts at the middle cutoff (vmapped; the range midpoints and points
+  log-uniform over six decades, fixed seed), at the other cutoffs from that answer.
 
 A state the recording lacks but that is the derivative of a measured one (`Model.derivative_of`,
 velocity of a measured position) is obtained by the same filtered differentiation. On the EMPS
@@ -34,9 +37,12 @@ from ..models.parameters import Parameter, Parameters
 from ..simulation.integrators import RK4
 from ..simulation.objectives import objective
 from ..simulation.problem import make_problem
+from .linear_form import linear_masses, linear_regression
 
 CUTOFFS = np.array([0.4, 0.2, 0.1, 0.05, 0.025])  # candidate cutoffs, fractions of the sampling rate
-LM_STARTS = 63  # random LM starts of a model without `regression` (besides the midpoints)
+LM_STARTS = 63  # random LM starts of a model not linear in its parameters (besides the midpoints)
+LM_ROWS = 2000  # equation-error rows LM reads at most
+LM_STEPS = 100  # LM steps from each start (the vmapped starts run until the slowest stops)
 DETERMINED = 0.5  # relative standard error up to which a parameter counts as seen by the regression
 DECADE = 10.0
 
@@ -157,7 +163,7 @@ def _linear_estimate(model: Model, blocks, q: int):
             A[:, names.index(k)] = np.broadcast_to(c, rhs.shape)
         mats.append(np.column_stack([_decimated(A[:, k], q) for k in range(P)]))
         rhss.append(_decimated(np.asarray(rhs, float), q))
-        masses.append(names.index(mass))
+        masses.append(names.index(mass) if mass is not None else None)
     seen = np.flatnonzero(np.any(np.concatenate(mats) != 0, axis=0))
     theta = np.full(P, np.nan)
     weights = [1.0] * len(mats)
@@ -166,8 +172,9 @@ def _linear_estimate(model: Model, blocks, q: int):
         b = np.concatenate([w * r for w, r in zip(weights, rhss)])
         theta[seen], _ = _scaled_lstsq(A, b)
         new = []
-        for M, m in zip(mats, masses):
-            rms = float(np.sqrt(np.mean((theta[m] * M[:, m]) ** 2))) if np.isfinite(theta[m]) else 0.0
+        for M, r, m in zip(mats, rhss, masses):  # an equation without a mass: its rate's scale
+            term = r if m is None else theta[m] * M[:, m]
+            rms = float(np.sqrt(np.mean(term**2))) if np.all(np.isfinite(term)) else 0.0
             new.append(1.0 / rms if rms > 0 else 1.0)
         if np.allclose(new, weights, rtol=1e-6):
             break
@@ -212,15 +219,23 @@ def _lm_solve(model: Model, phi0, data):
 
     solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
     residual = lambda phi, d: _derivative_residual(model, phi, d)
-    phis = jax.vmap(lambda p0: optx.least_squares(residual, solver, p0, args=data, max_steps=500, throw=False).value)(phi0)
+    phis = jax.vmap(lambda p0: optx.least_squares(residual, solver, p0, args=data, max_steps=LM_STEPS, throw=False).value)(phi0)
     return phis, jax.vmap(lambda p: jnp.sum(residual(p, data) ** 2))(phis)
 
 
-def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float):
-    """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta)."""
+def _lm_rows(n: int) -> np.ndarray:
+    """At most LM_ROWS of `n` equation-error rows, evenly spread: each row is its own equation
+    (the filter already smoothed the states), so a long recording's LM costs what a short one's
+    does, and recordings of any length from LM_ROWS up share one compiled LM."""
+    return np.unique(np.linspace(0, n - 1, min(n, LM_ROWS)).astype(int))
+
+
+def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float, seed: np.ndarray | None = None):
+    """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta);
+    from `seed` alone where given (another cutoff's estimate), else from many starts."""
     names = model.names
     lo, hi = start.lower, start.upper
-    nonneg = np.isfinite(lo) & (lo >= 0)
+    nonneg = np.array([p.positive for p in start.values()]) | (np.isfinite(lo) & (lo >= 0))
     # LM from one start finds local minima: start from the given values, the ranges' midpoints and
     # LM_STARTS points log-uniform over six decades below each range's width (a fixed seed).
     frac = np.vstack([np.full(len(names), 0.5), 10.0 ** (-6.0 * np.random.default_rng(0).uniform(size=(LM_STARTS, len(names))))])
@@ -228,11 +243,13 @@ def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float):
     x0 = np.where(np.isfinite(lo), lo, 0.0) + frac * width
     given = np.array([p.value is not None for p in start.values()])
     x0 = np.where(given, np.array([p.value if p.value is not None else 0.0 for p in start.values()]), x0)
+    x0 = x0 if seed is None else np.asarray(seed, float)[None]
     phi0 = np.where(nonneg, np.sqrt(np.abs(x0)), x0)
-    DY = tuple(jnp.asarray(_decimated(dy[s], q)) for s in model.states)
+    rows = _lm_rows(len(_decimated(next(iter(dy.values())), q)))
+    DY = tuple(jnp.asarray(_decimated(dy[s], q)[rows]) for s in model.states)
     data = (
-        tuple(jnp.asarray(_decimated(y[s], q)) for s in model.states),
-        tuple(jnp.asarray(_decimated(u[c], q)) for c in model.inputs),
+        tuple(jnp.asarray(_decimated(y[s], q)[rows]) for s in model.states),
+        tuple(jnp.asarray(_decimated(u[c], q)[rows]) for c in model.inputs),
         DY,
         tuple(jnp.asarray(1.0 / max(float(jnp.sqrt(jnp.mean(d * d))), 1e-300)) for d in DY),
         jnp.asarray(nonneg),
@@ -289,6 +306,17 @@ def _estimate_range(value: float, stderr: float, nonneg: bool, scale_upper: floa
     return (0.0, upper) if nonneg else (-upper, upper)
 
 
+def _linear_form(recording: Recording, model: Model, order: int, start: Parameters, dt: float) -> str | None:
+    """How the state equations are linear in theta: "own" (the model's `regression()` gives its
+    blocks), "found" (`linear_form.linear_masses` finds a factor for every equation, probed on
+    the recording's filtered rows) or None (Levenberg–Marquardt on the derivative residual)."""
+    y, dy = filtered_states(recording, model, None, order)
+    u = {c: np.asarray(recording[c]) for c in model.inputs}
+    if model.regression(y, dy, u) is not None:
+        return "own"
+    return "found" if linear_masses(model, y, u, dt, start) is not None else None
+
+
 def initial_estimate(
     recording: Recording,
     model: Model | str | None = None,
@@ -322,19 +350,27 @@ def initial_estimate(
     base = start if start is not None else m.parameters()
     nonneg = np.array([p.positive or (math.isfinite(p.min) and p.min >= 0) for p in base.values()])
 
-    linear = type(m).regression is not Model.regression
+    form = _linear_form(recording, m, order, base, 1.0 / fs)
+    linear = form is not None
     n_samples = len(recording)
+
+    seeds: list[np.ndarray] = []  # LM: the many starts at the middle cutoff, the others from its estimate
 
     def solve(c):  # the LM path keeps one border for every cutoff: one compilation, not five
         b = border if border is not None else _border(fs, c if linear or cutoff is not None else float(CUTOFFS.min() * fs), n_samples)
         y, dy, u, q = _rows(recording, m, c, order, b, decimate)
-        blocks = m.regression(y, dy, u)
-        return _linear_estimate(m, blocks, q) if blocks is not None else _lm_estimate(m, y, dy, u, q, base, 1.0 / fs)
+        blocks = m.regression(y, dy, u) if form == "own" else linear_regression(m, y, dy, u, 1.0 / fs, base) if linear else None
+        if blocks is not None:
+            return _linear_estimate(m, blocks, q)
+        est = _lm_estimate(m, y, dy, u, q, base, 1.0 / fs, seeds[0] if seeds else None)
+        seeds.append(est[0])
+        return est
 
     if cutoff is not None:
         theta, stderr, upper = solve(float(cutoff))
     else:  # the cutoff whose estimate simulates the recording best (output error, eq. 24)
-        tried = [(c, solve(c)) for c in CUTOFFS * fs]
+        middle = solve(float(CUTOFFS[2] * fs))
+        tried = [(c, middle if k == 2 else solve(c)) for k, c in enumerate(CUTOFFS * fs)]
         scores = _output_errors(scored, m, [np.where(nonneg, np.maximum(est[0], 0.0), est[0]) for _, est in tried])
         theta, stderr, upper = tried[int(np.argmin(scores))][1]
     out = []

@@ -1,5 +1,5 @@
 """Motor and drive models behind one protocol (`Model`); `get_model` resolves a built-in name
-(`"dc"`, the paper's model and the default, `"dc-coulomb"` or `"pmsm"`), a `package.module:attr` path or a
+(`"dc"`, the paper's model and the default, `"dc-coulomb"`, `"pmsm"` or `"servo"`), a `package.module:attr` path or a
 `path/to/file.py:attr`."""
 
 import hashlib
@@ -11,8 +11,9 @@ from pathlib import Path
 from .base import DiscreteModel, Model
 from .dc import DC, DCCoulomb
 from .pmsm import PMSM
+from .servo import Servo
 
-MODELS: dict[str, type[Model]] = {"dc": DC, "dc-coulomb": DCCoulomb, "pmsm": PMSM}
+MODELS: dict[str, type[Model]] = {"dc": DC, "dc-coulomb": DCCoulomb, "pmsm": PMSM, "servo": Servo}
 
 
 def get_model(model: "str | Model | type[Model] | None" = None) -> Model:
@@ -90,4 +91,4 @@ def model_spec(model: Model) -> str:
     return f"{module}:{cls.__qualname__}"
 
 
-__all__ = ["DC", "DCCoulomb", "MODELS", "PMSM", "DiscreteModel", "Model", "get_model", "model_spec"]
+__all__ = ["DC", "DCCoulomb", "MODELS", "PMSM", "DiscreteModel", "Model", "Servo", "get_model", "model_spec"]

@@ -21,6 +21,7 @@ import abc
 import importlib
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
+from typing import Any, ClassVar
 
 import equinox as eqx
 import numpy as np
@@ -39,6 +40,7 @@ class Integrator(eqx.Module):
     `substeps` equal sub-steps per sample interval (eq. 28)."""
 
     substeps: int = eqx.field(static=True, default=1)
+    per_member: ClassVar[bool] = False  # True: a population is simulated member by member (vmap), as an adaptive step needs
 
     def __check_init__(self):
         if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool) or self.substeps < 1:
@@ -68,6 +70,54 @@ class RK4(Integrator):
         k4 = field(u1, _axpy(y, h, k3))
         h6 = h / 6.0
         return tuple(a + h6 * (q1 + 2.0 * (q2 + q3) + q4) for a, q1, q2, q3, q4 in zip(y, k1, k2, k3, k4))
+
+
+class Diffrax(Integrator):
+    """An adaptive diffrax solver over each sub-step (default `diffrax.Tsit5()` with a PID
+    controller at `rtol`, `atol`): the input linear within the sub-step (eq. 29), the step size
+    chosen per member of a population (`per_member`: the population is vmapped, so one stiff or
+    failing member neither slows nor fails the others; a failed solve is +inf). For a stiff or fast model that a fixed step cannot resolve; its cost
+    against RK4 is in BENCHMARKS.md. Usable in `fit`, `simulate`, `validate`; the LM polish differentiates
+    through it forward-mode (`diffrax.ForwardMode`)."""
+
+    solver: Any = None
+    rtol: float = eqx.field(static=True, default=1e-8)
+    atol: float = eqx.field(static=True, default=1e-10)
+    max_steps: int = eqx.field(static=True, default=4096)
+    per_member: ClassVar[bool] = True
+
+    def __check_init__(self):
+        super().__check_init__()
+        if not (self.rtol > 0 and self.atol > 0):
+            raise ValueError(f"Diffrax rtol and atol must be positive, got rtol={self.rtol!r}, atol={self.atol!r}")
+
+    def step(self, field, y, u0, u1, h):
+        import diffrax
+        import jax.numpy as jnp
+
+        shape = jnp.broadcast_shapes(*(jnp.shape(a) for a in y))
+        y0 = jnp.stack([jnp.broadcast_to(a, shape) for a in y])
+
+        def rhs(s, z, _):
+            w = s / h
+            return jnp.stack([jnp.broadcast_to(d, shape) for d in field(tuple(a + w * (b - a) for a, b in zip(u0, u1)), tuple(z))])
+
+        sol = diffrax.diffeqsolve(
+            diffrax.ODETerm(rhs),
+            diffrax.Tsit5() if self.solver is None else self.solver,
+            t0=0.0,
+            t1=h,
+            dt0=h,
+            y0=y0,
+            saveat=diffrax.SaveAt(t1=True),
+            stepsize_controller=diffrax.PIDController(rtol=self.rtol, atol=self.atol),
+            max_steps=self.max_steps,
+            adjoint=diffrax.ForwardMode(),
+            throw=False,
+        )
+        out = sol.ys[-1]  # pyright: ignore[reportOptionalSubscript]
+        ok = sol.result == diffrax.RESULTS.successful
+        return tuple(jnp.where(ok, out[k], jnp.nan) for k in range(len(y)))
 
 
 class SampleMap(Integrator):
@@ -117,7 +167,7 @@ class AutoSubsteps(eqx.Module):
 
 
 # The built-in integrators by the names the CLI, the sidecars and result.json spell them.
-INTEGRATORS: Mapping[str, type[Integrator]] = MappingProxyType({"euler": Euler, "rk4": RK4})
+INTEGRATORS: Mapping[str, type[Integrator]] = MappingProxyType({"euler": Euler, "rk4": RK4, "diffrax": Diffrax})
 
 
 def integrator_spec(integrator: Integrator) -> str:

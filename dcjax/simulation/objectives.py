@@ -32,6 +32,8 @@ def simulate(params, problem: Problem, adjustments: Adjustments | None = None) -
         x = problem.model.as_array(params)
         if x.ndim == 2:
             return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
+    if problem.integrator.per_member and jnp.ndim(problem.model.as_array(params)) >= 2:
+        return jax.vmap(lambda xi, ai: simulate(xi, problem, ai))(problem.model.as_array(params), adjustments)
     return simulate_scan(params, problem, adjustments)
 
 
@@ -70,6 +72,8 @@ def objective(params, problem: Problem, adjustments: Adjustments | None = None) 
         if x.ndim == 2:
             return objective_kernel(x, problem, interpret=mode == "interpret", block=_block(x, mode))
     x = problem.model.as_array(params)
+    if x.ndim >= 2 and problem.integrator.per_member:  # an adaptive step per member, not one for the population
+        return jax.vmap(lambda xi, ai: objective(xi, problem, ai))(x, adjustments)
     if x.ndim == 2 and x.shape[0] >= 8 * LANES and x.shape[0] % LANES:  # whole vector lanes, no scalar tail
         p = x.shape[0]
         pad = lambda a: jnp.pad(a, ((0, -p % LANES),) + ((0, 0),) * (a.ndim - 1), mode="edge")

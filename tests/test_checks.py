@@ -127,8 +127,9 @@ def test_a_parameter_in_a_null_direction_prints_a_dash_not_a_standard_error():
     prob = dcjax.make_problem(rec, model=m)
     u = uncertainty(np.array([2.0, 1.5]), prob, dcjax.Bounds([0.1, 0.1], [10.0, 10.0], ("a", "b")))
     assert all(np.isnan(u.se[n]) for n in "ab") and all(u.verdict[n].startswith("not identifiable") for n in "ab")
-    rows = u.table().splitlines()[1:]
+    rows = u.table().splitlines()[1:3]
     assert all(re.search(r"\s-\s+-\s+-\s", r) for r in rows), rows
+    assert u.null_names == ("a", "b") and u.combinations["b*a"][0] == pytest.approx(3.0)  # only the product is determined
 
 
 def test_fit_png_of_a_joint_fit_stays_small_and_axes_carry_units(sd1, tmp_path):

@@ -10,22 +10,23 @@ import dcjax
 from dcjax import cli, datasets
 
 
+@pytest.mark.slow
 def test_simulation_equals_the_numpy_reference_and_fails_to_inf():
     rec = datasets.load("SD1")
     truth = datasets.true_params("SD1")
-    t, u = rec.t[:300], np.asarray(rec["u_a"])[:300, None]
+    t, u = rec.t[:100], np.asarray(rec["u_a"])[:100, None]
     want = ref.simulate(ref.dc_field, truth, t, u, [0.0, 0.0], substeps=64)
     short = dcjax.Recording(t=t, u_a=u[:, 0], i_a=want[:, 0], omega=want[:, 1])
     prob = dcjax.make_problem(short, dcjax.Diffrax(rtol=1e-10, atol=1e-12), initial={"i_a": 0.0, "omega": 0.0})
     sim = np.asarray(dcjax.simulate(truth, prob))
     assert np.max(np.abs(sim - want) / np.max(np.abs(want), axis=0)) < 1e-8
-    # a population: each member as simulated alone; a member whose solve fails gets +inf
+    # a population: a member whose solve fails gets +inf and changes no other member's OF
     lo, hi = dcjax.DC().bound_arrays("table4")
     X = lo + (hi - lo) * np.random.default_rng(0).uniform(size=(6, 7))
     X[5, 1] = 1e-30  # La ~ 0: the current's time constant vanishes, the step count runs out
     of = np.asarray(dcjax.objective(X, prob))
-    alone = [float(dcjax.objective(x, prob)) for x in X[:5]]
-    assert np.allclose(of[:5], alone, rtol=1e-6) and of[5] == np.inf
+    without = np.asarray(dcjax.objective(np.vstack([X[:5], X[:1]]), prob))  # the same shape: no new compilation
+    assert np.array_equal(of[:5], without[:5]) and np.all(np.isfinite(without)) and of[5] == np.inf
     with pytest.raises(ValueError, match="rtol and atol must be positive"):
         dcjax.Diffrax(rtol=0.0)
 

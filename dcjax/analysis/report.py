@@ -94,6 +94,7 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
     if u is None:
         lines.append("    (standard errors: call result.uncertainty(), dcjax fit --uncertainty or dcjax report RESULT.json --uncertainty)")
     else:
+        lines += [f"    {line}" for line in u.combination_lines()]
         if getattr(u, "approximation", ""):
             lines.append(f"    ({u.approximation})")
         pairs = u.strong_correlations(correl_threshold)

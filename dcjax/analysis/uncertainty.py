@@ -39,6 +39,8 @@ class Uncertainty:
     s2: float
     profile: tuple | None = None  # (values, OFs) of a profile likelihood, where computed
     approximation: str = ""  # what a non-Gaussian loss's errors assume ("" for the squared error)
+    null_names: tuple[str, ...] = ()  # parameters that move along a null direction (no interval)
+    combinations: dict[str, tuple[float, float]] = dataclasses.field(default_factory=dict)  # name -> (value, rel. std. error)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -65,9 +67,23 @@ class Uncertainty:
             else:
                 cols = f"{'-':>11} {'-':>8} {'-':>29}"
             lines.append(f"{n:>{w}} {v:13.6g} {cols}  {self.verdict[n]} ({self.reason[n]})")
+        lines += self.combination_lines()
         if self.approximation:
             lines.append(f"note: {self.approximation}")
         return "\n".join(lines)
+
+    def combination_lines(self) -> list[str]:
+        """What a null direction leaves determined: the parameters each alone are not, the
+        combinations (products of powers) along which the data cannot move are."""
+        if not self.null_names:
+            return []
+        out = [f"null direction: {', '.join(self.null_names)} are not determined, each alone (no interval)"]
+        if self.combinations:
+            out.append("determined combinations:")
+            out += [f"  {k} = {v:.9g} (relative std. error {r:.1e})" for k, (v, r) in self.combinations.items()]
+        else:
+            out.append("(more than one null direction, or a parameter at 0 in it: no combination named)")
+        return out
 
 
 def _target(problems, weights) -> JointProblem:
@@ -147,6 +163,7 @@ def uncertainty(
     d = np.where(se > 0, se, 1.0)
     corr = cov / np.outer(d, d)
     null_load = np.abs(vt[~keep]).max(axis=0) if np.any(~keep) else np.zeros(p)
+    null_idx, combos = _null_combinations(xf, jac, space.free_names, s2, rcond)
     tq = _t_quantile(dof)
     lo_b, hi_b = np.asarray(space.lower), np.asarray(space.upper)
     free_names = space.free_names
@@ -154,9 +171,11 @@ def uncertainty(
     for k, n in enumerate(free_names):
         rel = se[k] / abs(xf[k]) if xf[k] != 0 else np.inf
         at_bound = min(abs(xf[k] - lo_b[k]), abs(hi_b[k] - xf[k])) <= 1e-9 * width[k] + 1e-300
-        others = np.abs(np.delete(corr[k], k))
+        others = np.abs(np.where((np.arange(p) == k) | np.isin(np.arange(p), null_idx), 0.0, corr[k]))  # not with a null direction's
         if at_bound:
             verdict[n], reason[n] = NOT, "at a bound"
+        elif k in null_idx:
+            verdict[n], reason[n] = NOT, "in a null direction: only combinations are determined"
         elif null_load[k] > 0.3:
             verdict[n], reason[n] = NOT, "in a null direction of the Jacobian"
         elif rel > not_rel_se:
@@ -164,13 +183,13 @@ def uncertainty(
         elif rel > weak_rel_se:
             verdict[n], reason[n] = WEAK, f"relative std. error {rel:.1e}"
         elif others.max() > 0.99:
-            j = int(np.argmax(np.abs(np.where(np.arange(p) == k, 0, corr[k]))))
+            j = int(np.argmax(others))
             verdict[n], reason[n] = WEAK, f"correlation {corr[k, j]:+.3f} with {free_names[j]}"
         else:
             verdict[n], reason[n] = WELL, f"relative std. error {rel:.1e}"
     # A parameter in a null direction has no finite standard error (the pseudo-inverse's 1e-20
     # would be a number without meaning): NaN, printed as a dash, and no interval.
-    se = np.where([reason[n] == "in a null direction of the Jacobian" for n in free_names], np.nan, se)
+    se = np.where([reason[n].startswith("in a null direction") for n in free_names], np.nan, se)
     se_all = np.zeros(len(names))
     se_all[fidx] = se
     corr_all = np.zeros((len(names), len(names)))
@@ -187,7 +206,54 @@ def uncertainty(
         singular_values=sv,
         dof=dof,
         s2=s2,
+        null_names=tuple(free_names[k] for k in null_idx),
+        combinations=combos,
     )
+
+
+NULL_LOAD = 1e-4  # a parameter whose share of a unit null vector exceeds this moves along it
+
+
+def _power_name(a: str, b: str, e: float) -> str:
+    if abs(e - 1) < 1e-6:
+        return f"{a}*{b}"
+    if abs(e + 1) < 1e-6:
+        return f"{a}/{b}"
+    return f"{a}*{b}^{e:.4g}"
+
+
+def _null_combinations(x: np.ndarray, jac: np.ndarray, names, s2: float, rcond: float) -> tuple[list[int], dict[str, tuple[float, float]]]:
+    """The null directions of J in relative coordinates (d x_k = |x_k| d log x_k, absolute where
+    x_k = 0), where a scaling symmetry (Ra/s, La/s, J s, ...) is one direction with equal shares:
+    (indices of the parameters in a null direction, {combination: (value, rel. std. error)}). With
+    one null direction v and every parameter in it positive, x_k * x_p^(-v_k / v_p) (p the first
+    of the largest shares) is constant along it: determined, with the log-space covariance s^2 (J_s^T J_s)^+."""
+    js = jac * np.where(x != 0, np.abs(x), 1.0)
+    _, sv, vt = np.linalg.svd(js, full_matrices=False)
+    if sv.size == 0 or not sv[0] > 0:
+        return [], {}
+    null = sv <= rcond * sv[0]
+    if not null.any():
+        return [], {}
+    V = vt[null]
+    inside = [int(k) for k in np.flatnonzero(np.abs(V).max(axis=0) > NULL_LOAD)]
+    if len(V) != 1 or not all(x[k] > 0 for k in inside) or len(inside) < 2:
+        return inside, {}
+    v = V[0]
+    top = max(abs(v[k]) for k in inside)
+    piv = next(k for k in inside if abs(v[k]) >= (1 - 1e-6) * top)  # the first of the largest shares
+    inv = np.where(~null, 1.0 / np.where(~null, sv, 1.0) ** 2, 0.0)
+    cov_log = (vt.T * inv) @ vt * s2
+    combos = {}
+    for k in inside:
+        if k == piv:
+            continue
+        e = -v[k] / v[piv]
+        e = round(e * 2) / 2 if abs(e * 2 - round(e * 2)) < 1e-6 else e
+        a = np.zeros(len(x))
+        a[k], a[piv] = 1.0, e
+        combos[_power_name(names[k], names[piv], e)] = (float(x[k] * x[piv] ** e), float(np.sqrt(max(a @ cov_log @ a, 0.0))))
+    return inside, combos
 
 
 def profile(

@@ -155,6 +155,7 @@ def _add_design_parser(sub) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from ..models import MODELS
     from ..simulation.integrators import INTEGRATORS
     from ..strategies import METHODS
     from ..strategies.memory import MEMORIES
@@ -171,9 +172,16 @@ def _parser() -> argparse.ArgumentParser:
         help="fit every file on its own: DIR/<name>/ per file, DIR/summary.csv and DIR/summary.png; "
         "exit 0 all fitted, 1 some failed, 2 none fitted",
     )
-    f.add_argument("--model", default="dc", help="dc (default), dc-coulomb, pmsm, package.module:attr or path/to/file.py:Name")
+    f.add_argument(
+        "--model", default="dc", help=f"{', '.join(MODELS)} (built in; dc the default), package.module:attr or path/to/file.py:Name"
+    )
     f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...)")
-    f.add_argument("--integrator", default=None, choices=list(INTEGRATORS), help="default rk4 (a discrete-time model takes none)")
+    f.add_argument(
+        "--integrator",
+        default=None,
+        choices=list(INTEGRATORS),
+        help="default rk4; diffrax: adaptive, for a stiff model (a discrete-time model takes none)",
+    )
     f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
     f.add_argument("--runs", type=int, default=50)
     f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")

@@ -76,14 +76,16 @@ class Diffrax(Integrator):
     """An adaptive diffrax solver over each sub-step (default `diffrax.Tsit5()` with a PID
     controller at `rtol`, `atol`): the input linear within the sub-step (eq. 29), the step size
     chosen per member of a population (`per_member`: the population is vmapped, so one stiff or
-    failing member neither slows nor fails the others; a failed solve is +inf). For a stiff or fast model that a fixed step cannot resolve; its cost
+    failing member does not fail the others; a failed solve, or one that needs more than
+    `max_steps` per sub-step, is +inf: the vmapped population waits for its slowest member, so
+    the cap bounds what one stiff candidate costs; raise it, or `substeps`, for a stiff model). For a stiff or fast model that a fixed step cannot resolve; its cost
     against RK4 is in BENCHMARKS.md. Usable in `fit`, `simulate`, `validate`; the LM polish differentiates
     through it forward-mode (`diffrax.ForwardMode`)."""
 
     solver: Any = None
     rtol: float = eqx.field(static=True, default=1e-8)
     atol: float = eqx.field(static=True, default=1e-10)
-    max_steps: int = eqx.field(static=True, default=4096)
+    max_steps: int = eqx.field(static=True, default=256)  # per sub-step; a member that needs more is +inf
     per_member: ClassVar[bool] = True
 
     def __check_init__(self):

@@ -306,15 +306,15 @@ def _estimate_range(value: float, stderr: float, nonneg: bool, scale_upper: floa
     return (0.0, upper) if nonneg else (-upper, upper)
 
 
-def _linear_form(recording: Recording, model: Model, order: int, start: Parameters, dt: float) -> str | None:
+def _linear_form(recording: Recording, model: Model, order: int, start: Parameters, dt: float) -> "str | list[int] | None":
     """How the state equations are linear in theta: "own" (the model's `regression()` gives its
-    blocks), "found" (`linear_form.linear_masses` finds a factor for every equation, probed on
-    the recording's filtered rows) or None (Levenberg–Marquardt on the derivative residual)."""
+    blocks), the factors `linear_form.linear_masses` finds for every equation (probed once on the
+    recording's filtered rows) or None (Levenberg–Marquardt on the derivative residual)."""
     y, dy = filtered_states(recording, model, None, order)
     u = {c: np.asarray(recording[c]) for c in model.inputs}
     if model.regression(y, dy, u) is not None:
         return "own"
-    return "found" if linear_masses(model, y, u, dt, start) is not None else None
+    return linear_masses(model, y, u, dt, start)
 
 
 def initial_estimate(
@@ -352,6 +352,7 @@ def initial_estimate(
 
     form = _linear_form(recording, m, order, base, 1.0 / fs)
     linear = form is not None
+    masses = form if isinstance(form, list) else None
     n_samples = len(recording)
 
     seeds: list[np.ndarray] = []  # LM: the many starts at the middle cutoff, the others from its estimate
@@ -359,7 +360,7 @@ def initial_estimate(
     def solve(c):  # the LM path keeps one border for every cutoff: one compilation, not five
         b = border if border is not None else _border(fs, c if linear or cutoff is not None else float(CUTOFFS.min() * fs), n_samples)
         y, dy, u, q = _rows(recording, m, c, order, b, decimate)
-        blocks = m.regression(y, dy, u) if form == "own" else linear_regression(m, y, dy, u, 1.0 / fs, base) if linear else None
+        blocks = m.regression(y, dy, u) if form == "own" else linear_regression(m, y, dy, u, 1.0 / fs, base, masses) if masses else None
         if blocks is not None:
             return _linear_estimate(m, blocks, q)
         est = _lm_estimate(m, y, dy, u, q, base, 1.0 / fs, seeds[0] if seeds else None)

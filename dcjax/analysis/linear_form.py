@@ -88,10 +88,13 @@ def linear_masses(model: Model, y: dict, u: dict, dt: float, start: Parameters) 
     return masses
 
 
-def linear_regression(model: Model, y: dict, dy: dict, u: dict, dt: float, start: Parameters) -> list | None:
+def linear_regression(
+    model: Model, y: dict, dy: dict, u: dict, dt: float, start: Parameters, masses: list[int] | None = None
+) -> list | None:
     """`Model.regression`'s blocks `(columns, rhs, mass)` found from the model's equations (module
-    docstring); None where an equation is not linear in theta after any one parameter's factor."""
-    masses = linear_masses(model, y, u, dt, start)
+    docstring); None where an equation is not linear in theta after any one parameter's factor.
+    `masses`: `linear_masses` already found (probed here where not given)."""
+    masses = linear_masses(model, y, u, dt, start) if masses is None else masses
     if masses is None:
         return None
     x = jnp.asarray(_points(start, 1)[0])

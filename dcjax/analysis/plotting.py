@@ -94,3 +94,35 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
     if path is not None:
         fig.savefig(path, dpi=90)
     return fig
+
+
+def corner(posterior, path: str | Path) -> Path:
+    """Pairwise scatter and marginal histograms of a `Posterior`'s draws (all chains), the fit's
+    optimum marked; written to `path` (a bare `Figure`, no pyplot)."""
+    from matplotlib.figure import Figure
+
+    names, d = posterior.names, posterior.draws.reshape(-1, len(posterior.names))
+    k = len(names)
+    fig = Figure(figsize=(1.8 * k + 1, 1.8 * k + 1))
+    axes = fig.subplots(k, k, squeeze=False)
+    for i in range(k):
+        for j in range(k):
+            ax = axes[i, j]
+            if j > i:
+                ax.set_axis_off()
+                continue
+            if i == j:
+                ax.hist(d[:, i], bins=40, color="0.4")
+                ax.axvline(posterior.optimum[names[i]], color="r", lw=1)
+            else:
+                ax.plot(d[:, j], d[:, i], ".", ms=1, color="0.3", alpha=0.3)
+                ax.plot(posterior.optimum[names[j]], posterior.optimum[names[i]], "r+", ms=8)
+            ax.tick_params(labelsize=6)
+            if i == k - 1:
+                ax.set_xlabel(names[j], fontsize=8)
+            if j == 0 and i > 0:
+                ax.set_ylabel(names[i], fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=90)
+    return path

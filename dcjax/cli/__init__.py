@@ -1,4 +1,4 @@
-"""`dcjax fit | simulate | validate | report | design`: identification and its checks from a shell."""
+"""`dcjax fit | simulate | validate | report | design | sample`: identification and its checks from a shell."""
 
 import os
 import sys
@@ -7,12 +7,19 @@ import warnings
 from .args import _parser
 from .design import design_cmd
 from .fitting import bound_hints, fit
-from .saved import report_cmd, simulate_cmd, validate_cmd
+from .saved import report_cmd, sample_cmd, simulate_cmd, validate_cmd
 
 __all__ = ["bound_hints", "main"]
 
 
-COMMANDS = {"fit": fit, "simulate": simulate_cmd, "validate": validate_cmd, "report": report_cmd, "design": design_cmd}
+COMMANDS = {
+    "fit": fit,
+    "simulate": simulate_cmd,
+    "validate": validate_cmd,
+    "report": report_cmd,
+    "design": design_cmd,
+    "sample": sample_cmd,
+}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -102,6 +102,32 @@ def validate_cmd(args) -> int:
     return 0
 
 
+def sample_cmd(args) -> int:
+    """Posterior draws of a saved result: the table (posterior beside the linearised 90 %
+    intervals), posterior.npz and corner.png in --out."""
+    from ..analysis.plotting import corner
+
+    res = _result(args.result)
+    post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed)
+    u = res.uncertainty().uncertainties
+    assert u is not None
+    z90 = 1.6448536269514722
+    lin = {n: (u.params[n] - z90 * u.se[n], u.params[n] + z90 * u.se[n]) for n in post.names}  # NaN where a null direction
+    print(post.table(lin))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    post.save(out / "posterior.npz")
+    corner(post, out / "corner.png")
+    bad = [n for n in post.names if not post.rhat[n] <= 1.01 or not post.ess_bulk[n] >= 400]
+    if bad:
+        print(f"warning: R-hat above 1.01 or bulk ESS below 400 for {', '.join(bad)}: more --draws/--warmup, or a posterior "
+              "the sampler does not mix over (see corner.png)")  # fmt: skip
+    if post.divergences:
+        print(f"warning: {post.divergences} divergent transitions: the draws may miss part of the posterior")
+    print(f"wrote {out / 'posterior.npz'} and {out / 'corner.png'}")
+    return 0
+
+
 def report_cmd(args) -> int:
     res = _result(args.result)
     if args.uncertainty:

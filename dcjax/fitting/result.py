@@ -34,6 +34,7 @@ def _simulate(x, target: JointProblem, r: int):
 
 
 if TYPE_CHECKING:
+    from ..analysis.posterior import Posterior
     from ..analysis.uncertainty import Uncertainty
 
 
@@ -193,6 +194,16 @@ class FitResult:
             grid = np.linspace(max(lo, float(b.lower[k])), min(hi, float(b.upper[k])), profile_points)
             u.profile = (grid, profile_fn(x, profile, grid, target, space))
         return dataclasses.replace(self, _uncertainty=u)
+
+    def sample(self, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0) -> "Posterior":
+        """NUTS draws of the fitted search vector under the loss's likelihood (Gaussian for sse,
+        Laplace for l1, Huber for huber; each channel's noise scale from the residuals) and the
+        search space's prior (uniform in each range, log-uniform on a log scale):
+        `dcjax.analysis.posterior.sample`. Needs the fitted recordings."""
+        from ..analysis.posterior import sample
+
+        x = np.array([self.best_values[n] for n in self.names])
+        return sample(x, self.target(), self.space, self.observation.loss, draws=draws, chains=chains, warmup=warmup, seed=seed)
 
     @property
     def uncertainties(self) -> "Uncertainty | None":

@@ -8,13 +8,20 @@ Every loss scores the residual in the recording's units or normalised by the cha
 `SSE(normalize="peak")`, rho(a) = a^2, is the paper's eq. 24/27 and the default. `L1`: rho(a) =
 |a| (the mean absolute error). `Huber(delta)`: a^2 within delta, 2 delta |a| - delta^2 beyond
 (quadratic near zero, linear in the tails, continuous with its slope; equal to `SSE` within
-delta). With `"none"` a joint fit pools its recordings by sample count (`dcjax.fit`)."""
+delta). With `"none"` a joint fit pools its recordings by sample count (`dcjax.fit`).
+
+Each loss is also a noise model (`dcjax.simulation.likelihood`): the density p(a) = exp(-rho(a) /
+(2 tau^2)) / Z(tau) of a residual, for SSE the Gaussian (sigma = tau), for Huber the Huber
+density (Gaussian within delta, exponential tails), and for L1 the Laplace density exp(-|a| / b) /
+(2 b). The total log density of n residuals of one channel depends on them only through S = sum_k
+rho(a_k): `log_density(S, n, tau)`; `noise_scale(S, n)` is its maximum over tau."""
 
 import math
 from abc import abstractmethod
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 
 NORMALIZATIONS = ("peak", "none")
@@ -54,6 +61,21 @@ class Loss(eqx.Module):
         """What the uncertainty analysis assumes under this loss ("" for the Gaussian one, SSE)."""
         return ""
 
+    likelihood: ClassVar[str] = "Gaussian"
+
+    def log_density(self, S, n, tau):
+        """log prod_k p(a_k) of n residuals with sum_k rho(a_k) = S at noise scale tau (Gaussian: -S /
+        (2 tau^2) - n log(tau sqrt(2 pi)))."""
+        return -S / (2.0 * tau * tau) - n * jnp.log(tau * math.sqrt(2.0 * math.pi))
+
+    def noise_scale(self, S: float, n: int) -> float:
+        """The tau that maximises `log_density(S, n, tau)` (Gaussian: sqrt(S / n))."""
+        return math.sqrt(S / n)
+
+    def fisher(self, tau: float) -> float:
+        """The Fisher information of one residual about its location at scale tau (Gaussian: 1 / tau^2)."""
+        return 1.0 / (tau * tau)
+
 
 class SSE(Loss):
     """rho(a) = a^2: eq. 24 (unit weights) and eq. 27."""
@@ -80,10 +102,22 @@ class L1(Loss):
     def rho(self, a):
         return jnp.abs(a)
 
+    likelihood: ClassVar[str] = "Laplace"
+
     @property
     def approximation(self) -> str:
         return ("l1 loss: the standard errors are those of the squared-error objective linearized at the l1 optimum "
-                "(Gauss-Newton; exact for Gaussian noise, a rough guide for heavy-tailed noise)")  # fmt: skip
+                "(Gauss-Newton; exact for Gaussian noise, a rough guide for heavy-tailed noise; `dcjax sample` uses the Laplace likelihood)")  # fmt: skip
+
+    def log_density(self, S, n, tau):
+        """Laplace: -S / b - n log(2 b), b = tau."""
+        return -S / tau - n * jnp.log(2.0 * tau)
+
+    def noise_scale(self, S: float, n: int) -> float:
+        return S / n
+
+    def fisher(self, tau: float) -> float:
+        return 1.0 / (tau * tau)
 
 
 class Huber(Loss):
@@ -104,10 +138,41 @@ class Huber(Loss):
     def spec(self) -> str:
         return f"huber:{self.delta:g}"
 
+    likelihood: ClassVar[str] = "Huber"
+
     @property
     def approximation(self) -> str:
         return (f"huber loss (delta {self.delta:g}): Gauss-Newton on its least-squares form sign(a) sqrt(rho(a)); "
-                "samples beyond delta weigh less, as in the fit (no sandwich correction)")  # fmt: skip
+                "samples beyond delta weigh less, as in the fit (no sandwich correction; `dcjax sample` uses the Huber likelihood)")  # fmt: skip
+
+    def _log_z(self, tau):
+        """log of Z(tau) = int exp(-rho(a) / (2 tau^2)) da = tau (sqrt(2 pi) erf(k / sqrt 2) + 2 exp(-k^2 / 2) / k), k = delta / tau."""
+        k = self.delta / tau
+        return jnp.log(tau) + jnp.log(
+            math.sqrt(2.0 * math.pi) * jax.scipy.special.erf(k / math.sqrt(2.0)) + 2.0 * jnp.exp(-0.5 * k * k) / k
+        )
+
+    def log_density(self, S, n, tau):
+        return -S / (2.0 * tau * tau) - n * self._log_z(tau)
+
+    def noise_scale(self, S: float, n: int) -> float:
+        from scipy.optimize import minimize_scalar
+
+        g = math.sqrt(S / n)  # the Gaussian scale: the answer where every residual lies within delta
+        res = minimize_scalar(lambda lt: -float(self.log_density(S, n, math.exp(lt))), bounds=(math.log(g) - 5, math.log(g) + 5), method="bounded",
+                              options={"xatol": 1e-10})  # fmt: skip
+        return math.exp(float(res.x))
+
+    def fisher(self, tau: float) -> float:
+        """E[psi(b)^2] / tau^2 under the Huber density, b = a / tau, psi(b) = b within k = delta / tau and k sign(b)
+        beyond: (int_{-k}^{k} b^2 e^{-b^2/2} db + 2 k e^{-k^2/2}) / (Z(tau) / tau) / tau^2."""
+        from scipy.integrate import quad
+
+        k = self.delta / tau
+        z = math.exp(float(self._log_z(1.0 * tau))) / tau  # Z in units of tau
+        inner = quad(lambda b: b * b * math.exp(-0.5 * b * b), -k, k)[0]
+        tails = 2.0 * k * k * math.exp(-0.5 * k * k) / k  # 2 int_k^inf k^2 e^{k^2/2 - k b} db
+        return (inner + tails) / z / (tau * tau)
 
 
 LOSSES = {"sse": SSE, "l1": L1, "huber": Huber}

@@ -1,0 +1,94 @@
+"""The likelihood of a fit's recordings under its loss's noise model (`Loss.log_density`).
+
+Every measured channel c of every recording r has its own noise scale tau_rc (in the loss's units
+a = e / max|y*_c| with peak normalisation, the recording's units otherwise), estimated from the
+residuals at the optimum by maximum likelihood (`Loss.noise_scale`) and then held:
+
+    log L(x) = sum_rc log p(a_rc(x) | tau_rc),    log p = `Loss.log_density`(sum_k rho(a_rck), n_rc, tau_rc)
+
+(Gaussian for SSE, Laplace for L1, the Huber density for Huber). A channel of weight 0, or a
+recording of share 0, is not in the likelihood, as it is not in the fit. The residuals are the
+objective's: the same offsets, delays, initial states and padding (`JointProblem`)."""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .joint import JointProblem
+from .losses import Loss
+from .objectives import simulate
+from .problem import Problem
+
+
+class NoiseModel(eqx.Module):
+    """A loss's noise density with a scale per recording and channel (`active` 0: not counted)."""
+
+    loss: Loss
+    scale: Float[Array, "R C"]  # tau_rc, in the loss's units (`a`)
+    count: Float[Array, "R C"]  # samples n_rc
+    active: Float[Array, "R C"]  # 1 where the channel counts
+    information: Float[Array, "R C"]  # `Loss.fisher`: one residual's Fisher information about its location (0: not active)
+
+    def log_likelihood(self, sums: Float[Array, "R C"]) -> Float[Array, ""]:
+        """sum_rc log p of the channels whose rho-sums are `sums`."""
+        tau = jnp.where(self.active > 0, self.scale, 1.0)
+        return jnp.sum(self.active * self.loss.log_density(sums, self.count, tau))
+
+
+def _channel_rho(params, problem: Problem, adj) -> Float[Array, " C"]:
+    """sum_k rho(a_k) per measured channel (padding masked), a = e * norm (e for the default SSE)."""
+    traj = simulate(params, problem, adj)
+    norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
+    off = None if adj is None else adj.offset
+    out = []
+    for j, o in enumerate(problem.model.output_index):
+        e = traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]
+        rho = jnp.asarray(problem.loss.rho(e * norm[j]))
+        out.append(jnp.sum(rho if problem.mask is None else problem.mask * rho, axis=-1))
+    return jnp.stack(out, axis=-1)
+
+
+def channel_sums(x: Float[Array, " D"], target: JointProblem) -> Float[Array, "R C"]:
+    """sum_k rho(a_rck) for every recording r and measured channel c at search vector `x`
+    (recordings of one group evaluated by one vmapped call, as the objective)."""
+    rows: list = [None] * len(target.problems)
+    for group in target.groups():
+        if len(group) == 1:
+            r = group[0]
+            rows[r] = _channel_rho(target.model_x(x, r), target.problems[r], target.adjustments(x, r))
+            continue
+        stacked = target._stacked(x, group, _channel_rho)
+        for k, r in enumerate(group):
+            rows[r] = stacked[k]
+    return jnp.stack(rows)
+
+
+_sums = eqx.filter_jit(channel_sums)
+
+
+def fit_noise(x, target: JointProblem, loss: Loss) -> NoiseModel:
+    """The noise model at `x` (the fit's optimum): each channel's maximum-likelihood scale."""
+    sums = np.asarray(_sums(jnp.asarray(x, dtype=jnp.float64), target))
+    count = np.array([[float(p.n)] * sums.shape[1] for p in target.problems])
+    active = np.array([[float(w > 0 and s > 0) for s in np.asarray(p.scale)] for p, w in zip(target.problems, target.weights)])
+    active = active * (sums > 0)  # a channel fitted exactly has no noise to model (tau 0)
+    scale = np.array([[loss.noise_scale(float(S), int(n)) if on else 1.0 for S, n, on in zip(*row)] for row in zip(sums, count, active)])
+    info = np.where(active > 0, [[loss.fisher(float(t)) for t in row] for row in scale], 0.0)
+    f64 = lambda a: jnp.asarray(a, dtype=jnp.float64)
+    return NoiseModel(loss, f64(scale), f64(count), f64(active), f64(info))
+
+
+def whitened_residuals(x, target: JointProblem, noise: NoiseModel) -> Float[Array, " m"]:
+    """a_rck sqrt(I_rc) for every active channel's samples (I the noise model's Fisher
+    information): J^T J of their Jacobian is the Fisher information matrix of x."""
+    root = jnp.sqrt(noise.information)
+    out = []
+    for r, p in enumerate(target.problems):
+        traj = target.simulate(x, r)
+        adj = target.adjustments(x, r)
+        norm = p.norm if p.norm is not None else jnp.ones_like(p.scale)
+        for j, o in enumerate(p.model.output_index):
+            e = traj[:, o] - p.y_meas[:, j] if adj is None or adj.offset is None else traj[:, o] + adj.offset[j] - p.y_meas[:, j]
+            out.append(root[r, j] * e * norm[j])  # 0 for a channel not in the likelihood
+    return jnp.concatenate(out)

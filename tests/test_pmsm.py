@@ -39,9 +39,10 @@ def test_trajectories_equal_the_numpy_reference_and_the_estimate_is_a_regression
     sim = np.asarray(dcjax.simulate(TRUTH, prob))
     y = np.column_stack([rec["id"], rec["iq"], rec["omega"]])
     assert np.max(np.abs(sim - y) / np.max(np.abs(y), axis=0)) < 1e-10
-    t0 = time.perf_counter()
     est = dcjax.initial_estimate(rec, model, cutoff=0.2 / DT)
-    assert time.perf_counter() - t0 < 2.0
+    t0 = time.perf_counter()  # the second call (compiled): a regression takes ~0.01 s, the LM fallback 0.7-1.1 s
+    dcjax.initial_estimate(rec, model, cutoff=0.2 / DT)
+    assert time.perf_counter() - t0 < 0.3
     for n, v in TRUTH.items():  # noise-free: the equation error of the filtered derivatives only
         assert est[n].value == pytest.approx(v, rel=0.05) and 0 < est[n].min < v < est[n].max, (n, est[n])
     assert set(model.derived(TRUTH)) == {"electrical time constant Ld/Rs", "electrical time constant Lq/Rs", "mechanical time constant J/B"}

@@ -39,3 +39,24 @@ def test_no_interval_inside_the_symmetry_and_the_combinations_match_the_truth(sp
     text = u.table()
     assert "not determined, each alone" in text and "La/Ra = " in text
     assert "J*Ra = " in res.uncertainty().report()
+
+
+def test_a_parameter_at_zero_with_a_small_absolute_error_is_determined():
+    """Tla = 0 in truth, inside a range of +-1 Nm (not at a bound), 0.05 % noise: its relative error
+    is infinite, its absolute one under a thousandth of its range -> well determined (near 0)."""
+    sd1 = datasets.load("SD1")
+    truth = {**datasets.true_params("SD1"), "Tla": 0.0}
+    y = ref.simulate(ref.dc_field, truth, sd1.t, np.asarray(sd1["u_a"])[:, None], [0.0, 0.0], substeps=16)
+    y = y + 0.0005 * np.abs(y).max(axis=0) * np.random.default_rng(0).standard_normal(y.shape)
+    rec = dcjax.Recording(t=sd1.t, u_a=sd1["u_a"], i_a=y[:, 0], omega=y[:, 1], name="SD1-Tlc0")
+    lo, hi = dcjax.DC().bound_arrays("table4")
+    lo, hi = lo.copy(), hi.copy()
+    lo[4], hi[4] = -1.0, 1.0
+    names = dcjax.DC().names
+    x = np.array([truth[n] for n in names])
+    from dcjax.analysis.uncertainty import uncertainty
+
+    u = uncertainty(x, dcjax.make_problem(rec, dcjax.RK4(substeps=4)), dcjax.Bounds(lo, hi, names))
+    assert u.se["Tla"] <= 1e-3 * 2.0 and abs(x[4]) < u.se["Tla"]
+    assert u.verdict["Tla"] == "well determined" and u.reason["Tla"].startswith("near 0"), u.reason["Tla"]
+    assert u.verdict["Tlc"] == "weakly determined"  # 8.55e-8 +- 1.3e-8: not near 0, judged relatively as before

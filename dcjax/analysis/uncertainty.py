@@ -138,7 +138,10 @@ def uncertainty(
     Verdicts: *not identifiable from this recording* when the parameter sits on a bound, loads on a
     null direction of J (singular value below `rcond` x the largest), or its relative standard error
     exceeds `not_rel_se`; *weakly determined* when the relative error exceeds `weak_rel_se` or it
-    is correlated above 0.99 with another parameter; else *well determined*. Parameters fixed in
+    is correlated above 0.99 with another parameter; else *well determined*. A value near 0 is
+    judged in absolute terms: where it lies within one standard error of 0 and that error is at most
+    `ABSOLUTE_SHARE` of its range (a load torque of 0 fitted to +-6e-4 Nm in a range of 1 Nm), it is
+    *well determined* (near 0), not "not identifiable" for a relative error that only 0 makes large. Parameters fixed in
     `bounds` (a `Space`, or equal lower and upper bounds) are known: *fixed (known)*, error 0,
     and the others' errors are computed with them held."""
     target = _target(problems, weights)
@@ -178,6 +181,8 @@ def uncertainty(
             verdict[n], reason[n] = NOT, "in a null direction: only combinations are determined"
         elif null_load[k] > 0.3:
             verdict[n], reason[n] = NOT, "in a null direction of the Jacobian"
+        elif rel > not_rel_se and se[k] <= ABSOLUTE_SHARE * width[k]:
+            verdict[n], reason[n] = WELL, f"near 0: std. error {se[k]:.2g}, {se[k] / width[k]:.1e} of its range"
         elif rel > not_rel_se:
             verdict[n], reason[n] = NOT, f"relative std. error {rel:.1e}"
         elif rel > weak_rel_se:
@@ -210,6 +215,8 @@ def uncertainty(
         combinations=combos,
     )
 
+
+ABSOLUTE_SHARE = 1e-3  # a standard error this share of the parameter's range determines it, whatever its value
 
 NULL_LOAD = 1e-4  # a parameter whose share of a unit null vector exceeds this moves along it
 

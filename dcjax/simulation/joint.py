@@ -190,20 +190,28 @@ class JointProblem(eqx.Module):
         fn = objective if fn is None else fn
         return jax.vmap(fn, in_axes=(None if lay.shared else 0, 0, 0 if adj is not None else None))(xm, stacked, adj)
 
-    def residuals(self, x: Float[Array, " D"]) -> Float[Array, " m"]:
-        """Every recording's residuals (`dcjax.residuals`, in recording order), each scaled by
-        sqrt(its weight): sum r^2 is `objective(x)`. Recordings of one group are evaluated by one
-        vmapped call, as in `objective` (a padded recording's extra samples are left out)."""
+    def each(self, x: Float[Array, " D"], fn) -> list:
+        """`fn(params, problem, adjustments)` of every recording, in recording order; the
+        recordings of one group from one vmapped call (a padded recording's value is over the
+        group's length: the caller trims its padding)."""
         out: list = [None] * len(self.problems)
         for group in self.groups():
             if len(group) == 1:
                 r = group[0]
-                out[r] = residuals(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
+                out[r] = fn(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
                 continue
-            stacked = self._stacked(x, group, residuals)  # (len(group), C * n_max)
+            stacked = self._stacked(x, group, fn)
             for k, r in enumerate(group):
-                n, c = self.problems[r].n, self.problems[r].y_meas.shape[1]
-                out[r] = stacked[k].reshape(c, -1)[:, :n].reshape(-1)
+                out[r] = stacked[k]
+        return out
+
+    def residuals(self, x: Float[Array, " D"]) -> Float[Array, " m"]:
+        """Every recording's residuals (`dcjax.residuals`, in recording order), each scaled by
+        sqrt(its weight): sum r^2 is `objective(x)`. Recordings of one group are evaluated by one
+        vmapped call, as in `objective` (a padded recording's extra samples are left out)."""
+        out = [
+            o.reshape(p.y_meas.shape[1], -1)[:, : p.n].reshape(-1) for o, p in zip(self.each(x, residuals), self.problems)
+        ]  # fmt: skip
         return jnp.concatenate([jnp.sqrt(w) * o for w, o in zip(self.weights, out)])
 
     def simulate(self, x: Float[Array, " D"], r: int = 0):

@@ -36,32 +36,27 @@ class NoiseModel(eqx.Module):
         return jnp.sum(self.active * self.loss.log_density(sums, self.count, tau))
 
 
-def _channel_rho(params, problem: Problem, adj) -> Float[Array, " C"]:
-    """sum_k rho(a_k) per measured channel (padding masked), a = e * norm (e for the default SSE)."""
+def _errors(params, problem: Problem, adj) -> Float[Array, "C n"]:
+    """a = e * norm of every measured channel and sample (e for the default SSE), offsets added."""
     traj = simulate(params, problem, adj)
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
     off = None if adj is None else adj.offset
-    out = []
-    for j, o in enumerate(problem.model.output_index):
-        e = traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]
-        rho = jnp.asarray(problem.loss.rho(e * norm[j]))
-        out.append(jnp.sum(rho if problem.mask is None else problem.mask * rho, axis=-1))
-    return jnp.stack(out, axis=-1)
+    return jnp.stack([
+        (traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]) * norm[j]
+        for j, o in enumerate(problem.model.output_index)
+    ])  # fmt: skip
+
+
+def _channel_rho(params, problem: Problem, adj) -> Float[Array, " C"]:
+    """sum_k rho(a_k) per measured channel (padding masked)."""
+    rho = jnp.asarray(problem.loss.rho(_errors(params, problem, adj)))
+    return jnp.sum(rho if problem.mask is None else problem.mask * rho, axis=-1)
 
 
 def channel_sums(x: Float[Array, " D"], target: JointProblem) -> Float[Array, "R C"]:
     """sum_k rho(a_rck) for every recording r and measured channel c at search vector `x`
-    (recordings of one group evaluated by one vmapped call, as the objective)."""
-    rows: list = [None] * len(target.problems)
-    for group in target.groups():
-        if len(group) == 1:
-            r = group[0]
-            rows[r] = _channel_rho(target.model_x(x, r), target.problems[r], target.adjustments(x, r))
-            continue
-        stacked = target._stacked(x, group, _channel_rho)
-        for k, r in enumerate(group):
-            rows[r] = stacked[k]
-    return jnp.stack(rows)
+    (`JointProblem.each`: recordings of one group evaluated by one vmapped call)."""
+    return jnp.stack(target.each(x, _channel_rho))
 
 
 _sums = eqx.filter_jit(channel_sums)
@@ -80,15 +75,9 @@ def fit_noise(x, target: JointProblem, loss: Loss) -> NoiseModel:
 
 
 def whitened_residuals(x, target: JointProblem, noise: NoiseModel) -> Float[Array, " m"]:
-    """a_rck sqrt(I_rc) for every active channel's samples (I the noise model's Fisher
-    information): J^T J of their Jacobian is the Fisher information matrix of x."""
+    """a_rck sqrt(I_rc) for every channel's samples (I the noise model's Fisher information, 0
+    for a channel not in the likelihood): J^T J of their Jacobian is the Fisher information
+    matrix of x. Evaluated by groups, as the objective (`JointProblem.each`)."""
     root = jnp.sqrt(noise.information)
-    out = []
-    for r, p in enumerate(target.problems):
-        traj = target.simulate(x, r)
-        adj = target.adjustments(x, r)
-        norm = p.norm if p.norm is not None else jnp.ones_like(p.scale)
-        for j, o in enumerate(p.model.output_index):
-            e = traj[:, o] - p.y_meas[:, j] if adj is None or adj.offset is None else traj[:, o] + adj.offset[j] - p.y_meas[:, j]
-            out.append(root[r, j] * e * norm[j])  # 0 for a channel not in the likelihood
-    return jnp.concatenate(out)
+    rows = target.each(x, _errors)
+    return jnp.concatenate([(root[r][:, None] * a[:, : p.n]).reshape(-1) for r, (a, p) in enumerate(zip(rows, target.problems))])

@@ -38,6 +38,8 @@ from ..simulation.integrators import RK4
 from ..simulation.objectives import simulate
 from ..simulation.problem import Problem, make_problem
 
+OBSERVATION_PREFIXES = ("y0_", "offset_", "delay_")  # a fit's observation parameters (`dcjax.Observation`)
+
 DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
 NULL_TOL = 1e-12  # an eigenvalue of the scaled information below this fraction of the largest: numerically zero, not identifiable
 
@@ -190,6 +192,8 @@ def design_input(
     m = get_model(model)
     given = _given(m, given)
     names = tuple(c for c in m.inputs if c not in given)
+    if isinstance(params, Mapping) or hasattr(params, "items"):  # a fit's params: its y0_, offset_, delay_ entries are not the model's
+        params = {k: params[k] for k in params if k in m.names or not str(k).startswith(OBSERVATION_PREFIXES)}
     n, lo, hi, per = _grid(m, params, duration, dt, u_range, hold, names)
     free_names, scales, weights = _free(m, params, criterion, fixed, scale)
     segments = max(1, (n - 1) // per)  # whole hold intervals; the last level also holds the final samples

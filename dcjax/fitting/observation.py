@@ -3,10 +3,18 @@ initial value, sensor offsets on measured channels, delays of inputs (issue 28),
 are compared (`measure`: the model's measured states unless given) and how each input acts
 between its samples (`hold`: linear, eq. 29, or a zero-order hold).
 
-An initial state is given per state as a number, `"measured"` (the first sample; the default
-for a measured state), `"derivative"` (the slope at the first sample of a quadratic through the first samples of
-the state it is `Model.derivative_of`; the default for such a state) or `"fit"` (a free
-parameter `y0_<state>`, one per recording). Any other state starts at 0 (`Observation.notes`)."""
+An initial state is given per state as a number, `"measured"` (the first sample), `"derivative"`
+(the slope at the first sample of a quadratic through the first samples of the state it is
+`Model.derivative_of`; the default for such a state) or `"fit"` (a free parameter `y0_<state>`,
+one per recording). Any other state starts at 0 (`Observation.notes`).
+
+The default of a compared state is decided from the data (`Observation.with_defaults`): its first
+sample where the channel is clean, a fitted `y0_<state>` where it is noisy (`noise_level` above
+`NOISE_SHARE` of its range in some recording). A noisy first sample is off by about one noise sd,
+and a wrong start shifts every sample of the state's transient the same way: the fitted
+parameters move by several of their standard errors whatever the noise level (the ratio does not
+shrink with the noise). A defaulted `y0` searches the first sample +- `START_SPREAD` noise levels;
+beyond `MAX_FITTED_STARTS` such values in one fit (hundreds of recordings) the first samples stay."""
 
 import dataclasses
 from collections.abc import Mapping
@@ -19,6 +27,9 @@ from ..simulation.losses import Loss, get_loss
 from ..simulation.problem import HOLDS, held_inputs
 
 SPECS = ("measured", "derivative", "fit")
+NOISE_SHARE = 1e-4  # a channel is noisy where its noise level exceeds this share of its range
+START_SPREAD = 8.0  # a defaulted y0's range: each recording's first sample +- this many noise levels
+MAX_FITTED_STARTS = 16  # defaulted y0 values (recordings x noisy states) in one fit, at most
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,6 +53,7 @@ class Observation:
     delays: tuple[str, ...] = ()
     measure: tuple[str, ...] | None = None
     hold: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    chosen: Mapping[str, str] = dataclasses.field(default_factory=dict, compare=False, repr=False)  # state -> why (with_defaults)
 
     def __post_init__(self):
         if not isinstance(self.loss, (str, Loss)):
@@ -70,7 +82,7 @@ class Observation:
         """The paper's terms: eq. 24 from the first sample, nothing offset or delayed."""
         return (
             self.loss == get_loss(None)
-            and not self.initial
+            and all(v == "measured" for v in self.initial.values())
             and not self.offsets
             and not self.delays
             and self.measure is None
@@ -113,6 +125,36 @@ class Observation:
             return "derivative"
         return 0.0
 
+    def with_defaults(self, model: Model, recordings: list[Recording], fit_allowed: bool = True) -> "Observation":
+        """The observation with each compared state that `initial` does not name decided from the
+        data (module docstring): `"fit"` where its channel is noisy in some recording (at most
+        `MAX_FITTED_STARTS` values in all, and only where `fit_allowed`), else the first sample
+        (the unnamed default); `chosen` holds a note per noisy state, for `notes`."""
+        compared = [s for s in self.observed(model).outputs if s in model.states and s not in self.initial]
+        compared = [s for s in compared if all(s in r.channels for r in recordings)]
+        share = {s: max(noise_share(r[s]) for r in recordings) for s in compared}
+        noisy = [s for s in compared if share[s] > NOISE_SHARE]
+        if not noisy:
+            return self
+        count = len(noisy) * len(recordings)
+        fits = fit_allowed and count <= MAX_FITTED_STARTS
+        chosen = {}
+        for s in noisy:
+            level = f"{s}'s noise is {share[s]:.1e} of its range"
+            if fits:
+                chosen[s] = (f"note: {level}: its initial value is fitted (y0_{s}, the first sample +- {START_SPREAD:g} noise sd); "
+                             f"--initial {s}=measured starts at the first sample")  # fmt: skip
+            else:
+                why = "nd auto" if not fit_allowed else f"{count} initial values > {MAX_FITTED_STARTS}"
+                chosen[s] = (f"note: {level}, but it starts at its first sample ({why}), which biases the fit by about its noise; "
+                             f"--initial {s}=fit fits it")  # fmt: skip
+        initial = {**self.initial, **{s: "fit" for s in noisy}} if fits else dict(self.initial)
+        return dataclasses.replace(self, initial=initial, chosen=chosen)
+
+    def defaulted(self, state: str) -> bool:
+        """Whether `state`'s initial value is fitted by `with_defaults`' choice (its range is narrow)."""
+        return state in self.chosen and self.initial.get(state) == "fit"
+
     def fitted_states(self) -> tuple[str, ...]:
         return tuple(s for s, v in self.initial.items() if v == "fit")
 
@@ -131,7 +173,7 @@ class Observation:
     def notes(self, model: Model, recordings: list[Recording]) -> list[str]:
         """One line per state that starts at 0 only because nothing else was said of it, and per
         state that starts at its derivative estimate (with the values)."""
-        out = []
+        out = list(self.chosen.values())
         for s in model.states:
             if s not in self.initial and any(self.spec_of(s, model, r) == 0.0 for r in recordings):
                 out.append(f"note: state {s} is neither measured nor given: it starts at 0 (--initial {s}=VALUE|derivative|fit)")
@@ -161,6 +203,31 @@ class Observation:
             None if settings.get("measure") is None else tuple(settings["measure"]),
             dict(settings.get("hold") or {}),
         )
+
+
+def noise_level(y) -> float:
+    """The sd of a signal's white noise: 1.4826 MAD(fourth differences) / sqrt(70) (white noise of
+    sd s gives fourth differences of sd s sqrt(70); a smooth signal's own differences shrink by
+    about its sample step times its bandwidth per order, so that a clean transient of 60 samples
+    reads below 1e-6 of its range, where second differences read 6e-4; the median lets steps and
+    kinks count little). 0 for fewer than 5 samples."""
+    d = np.diff(np.asarray(y, float), 4)
+    if d.size == 0:
+        return 0.0
+    return float(1.482602218505602 * np.median(np.abs(d - np.median(d))) / np.sqrt(70.0))
+
+
+def noise_share(y) -> float:
+    """`noise_level(y)` as a share of y's range (0 for a constant channel)."""
+    span = float(np.ptp(np.asarray(y, float))) if len(y) else 0.0
+    return noise_level(y) / span if span > 0 else 0.0
+
+
+def start_range(state: str, recordings: list[Recording]) -> tuple[float, float]:
+    """A defaulted `y0_<state>`'s range: every recording's first sample +- `START_SPREAD` noise sd."""
+    lo = min(float(r[state][0]) - START_SPREAD * noise_level(r[state]) for r in recordings)
+    hi = max(float(r[state][0]) + START_SPREAD * noise_level(r[state]) for r in recordings)
+    return lo, hi
 
 
 def initial_spec(spec, state: str = "state") -> "float | str":

@@ -184,7 +184,8 @@ class Plan:
         search vector (`dcjax.fitting.vector`), its space and the problems. A fixed parameter's
         value may lie outside its range (a known value overrides it). `starts`: start rows in any
         form `start_rows` takes, instead of the parameters' values."""
-        recordings, model, observation = list(recordings), self.model, self.observation
+        recordings, model = list(recordings), self.model
+        observation = self.observation.with_defaults(model, recordings, fit_allowed=not isinstance(self.integrator, AutoSubsteps))
         resolved = resolve_parameters(params, recordings, model)
         own, extras = split_parameters(resolved, model)
         local = [n for n, p in own.items() if p.local and not p.vary]

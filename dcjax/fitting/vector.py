@@ -7,7 +7,8 @@ recording takes.
 Automatic ranges: an offset +-10 % of the channel's peak over the fit's recordings, a delay 0..10
 samples (in seconds, the median sample interval), a fitted initial state the measured channel's
 range widened by 10 % of its peak (or +-1.5x the largest filtered derivative for a derivative
-state); a `Parameter` of that name in the fit's `params` (`--bound`) replaces it.
+state; a noisy state fitted by default: its first samples +- 8 noise sd, `observation.start_range`);
+a `Parameter` of that name in the fit's `params` (`--bound`) replaces it.
 
 Also here: a fit's `params` resolved (`resolve_parameters`: a preset, "auto" or `Parameters`)
 and its start values as unit-cube rows (`start_rows`)."""
@@ -25,7 +26,7 @@ from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space
 from ..simulation.joint import Layout
-from .observation import Observation, derivative_at_start
+from .observation import Observation, derivative_at_start, start_range
 
 OFFSET_SHARE = 0.10
 DELAY_SAMPLES = 10.0
@@ -69,6 +70,9 @@ def default_extra(name: str, model: Model, recordings: list[Recording], observat
         h = float(np.median(np.concatenate([np.diff(r.t) for r in recordings])))
         return Parameter(name, value=None, min=0.0, max=DELAY_SAMPLES * h, unit=unit)
     state = name.removeprefix("y0_")
+    if observation.defaulted(state):
+        lo, hi = start_range(state, recordings)
+        return Parameter(name, value=None, min=lo, max=hi, unit=unit)
     if all(state in r.channels for r in recordings):
         lo = min(float(np.min(r[state])) for r in recordings)
         hi = max(float(np.max(r[state])) for r in recordings)

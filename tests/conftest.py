@@ -7,7 +7,13 @@ import pytest
 # in-process and spawn it, so keep it off (tests/test_cache.py turns it on in a temporary folder).
 os.environ.setdefault("DCJAX_NO_CACHE", "1")
 
+import dcjax
 from dcjax import datasets
+
+# The XLA setting the CLI and the experiments run with (`dcjax.use_compiled_loops`: a time loop
+# compiled as one function), so that in-process tests run what users run; in this test process
+# only, before any JAX computation (subprocess tests that check the default remove XLA_FLAGS).
+dcjax.use_compiled_loops()
 
 
 @pytest.fixture(scope="session")

@@ -50,18 +50,21 @@ def test_noise_level_is_the_white_noises_sd_and_a_clean_sd_channel_is_clean(sd1)
 
 def test_the_default_fits_a_noisy_start_and_keeps_a_clean_ones_first_sample(sd1):
     """Decided per state from the data, with a note; `--initial S=measured` keeps the first sample;
-    beyond MAX_FITTED_STARTS values the first samples stay, with a note saying so."""
+    beyond MAX_FITTED_STARTS values the first samples stay, with a note saying so; nd auto refuses."""
     model = dcjax.get_model("pmsm")
     recs = recordings(0.005)
-    obs = dcjax.Observation().with_defaults(model, recs)
+    obs = dcjax.Observation().with_defaults(model.outputs, recs)
     assert obs.initial == {"id": "fit", "iq": "fit", "omega": "fit"} and obs.defaulted("iq")
     assert all("initial value is fitted" in n for n in obs.notes(model, recs))
-    kept = dcjax.Observation(initial={"iq": "measured"}).with_defaults(model, recs)
+    kept = dcjax.Observation(initial={"iq": "measured"}).with_defaults(model.outputs, recs)
     assert kept.initial["iq"] == "measured" and not kept.defaulted("iq") and kept.initial["id"] == "fit"
-    many = dcjax.Observation().with_defaults(model, recs * 6)  # 54 values > 16
+    many = dcjax.Observation().with_defaults(model.outputs, recs * 6)  # 54 values > 16
     assert many.initial == {} and all("starts at its first sample (54 initial values > 16)" in n for n in many.notes(model, recs))
-    clean = dcjax.Observation().with_defaults(dcjax.DC(), [sd1])
+    clean = dcjax.Observation().with_defaults(dcjax.DC().outputs, [sd1])
     assert clean.initial == {} and clean.chosen == {} and clean.plain
+    md1 = dcjax.datasets.load("MD1")  # emulated sensors: both channels noisy; nd auto refuses their fitted starts, naming the way out
+    with pytest.raises(ValueError, match="the noisy i_a, omega start fitted by default: --initial i_a=measured,omega=measured"):
+        dcjax.fitting.setup.plan("dc", integrator=dcjax.AutoSubsteps()).setup([md1], "table8")
     space = dcjax.fitting.setup.plan("pmsm").setup(recs, None).space  # a defaulted y0's range: first samples +- 8 noise sd
     k = space.names.index("y0_iq[0]")
     lo, hi = float(space.bounds.lower[k]), float(space.bounds.upper[k])

@@ -209,33 +209,21 @@ def design_input(
     crit = criterion if criterion in ("d", "a") else "names"
     z0 = _starts(segments, len(names), starts, seed)
     columns = tuple(m.inputs.index(c) for c in names)
-    reference = None
-    if len(baselines):
-        us = [_on_grid(b, n, "baselines: each input", len(names)) for b in baselines]
-        logvar = [np.log(np.asarray(_variances(with_input(base, jnp.asarray(u), columns), x, free, sigma, sc))) for u in us]
-        reference = jnp.asarray(np.min(logvar, axis=0))
+    loss = _Criterion(base, x, free, sigma, sc, jnp.asarray(weights), None, crit, segments, per, tuple(map(float, lo)), tuple(map(float, hi)),
+                      columns)  # fmt: skip
+    us = [_on_grid(b, n, "baselines: each input", len(names)).reshape(n, len(names)) for b in baselines]
+    if us:  # the search minimises the largest log variance ratio to the baselines' best, from each baseline's levels
+        loss = eqx.tree_at(lambda c: c.reference, loss, jnp.min(_log_variances(loss, jnp.asarray(np.stack(us))), axis=0),
+                           is_leaf=lambda v: v is None)  # fmt: skip
         levels = np.array([np.clip((u[::per][:segments] - lo) / (hi - lo), 0.0, 1.0) for u in us])
         z0 = jnp.concatenate([jnp.asarray(levels), z0])[: max(starts, len(us))]
-    loss = _Criterion(
-        base,
-        x,
-        free,
-        sigma,
-        sc,
-        jnp.asarray(weights),
-        reference,
-        crit,
-        segments,
-        per,
-        tuple(map(float, lo)),
-        tuple(map(float, hi)),
-        columns,
-    )
     zs, fs = _optimize(loss, z0, int(steps), 0.02)
     fs = np.asarray(fs)
     k = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
     u = np.asarray(loss.profile(zs[k]))
-    value = -float(fs[k]) if crit == "d" and reference is None else float(fs[k])
+    value = -float(fs[k]) if crit == "d" and not us else float(fs[k])
+    if us:  # the design against the baselines themselves, all through one function
+        u, value = _against_baselines(loss, u, us)
     return summarize(
         m, params, t, u, limit, free_names, sigma, criterion, value, per * dt, {k: scales[k] for k in free_names}, given, names
     )
@@ -328,13 +316,6 @@ def _on_grid(u, n: int, what: str, d: int | None = None) -> np.ndarray:
 _information = eqx.filter_jit(information)
 
 
-@eqx.filter_jit
-def _variances(prob: Problem, x, free, sigma, scale) -> jax.Array:
-    """Relative Cramér–Rao variances (the diagonal of F^-1) of the free parameters under `prob`'s input."""
-    F = information(prob, x, free, sigma, scale)
-    return jnp.diag(jnp.linalg.inv(F + 1e-12 * jnp.trace(F) / F.shape[0] * jnp.eye(F.shape[0])))
-
-
 class _Criterion(eqx.Module):
     """What the design minimizes, as a function of the levels z in [0, 1] (one per hold interval):
     the criterion of `criterion_value`, or, with `reference` (the log relative variances of the
@@ -362,18 +343,42 @@ class _Criterion(eqx.Module):
         u = lo + (hi - lo) * jnp.clip(z, 0.0, 1.0)
         return jnp.repeat(u, self.per, axis=0, total_repeat_length=n)  # the last level repeated to the end: never a short last level
 
-    def __call__(self, z: jax.Array) -> tuple[jax.Array, jax.Array]:
-        F = information(with_input(self.base, self.profile(z), self.columns), self.x, self.free, self.sigma, self.scale)
-        if self.reference is None:
-            f = criterion_value(F, self.crit, self.weights)
-            return f, f
+    def information(self, u: jax.Array) -> jax.Array:
+        """F under the designed inputs `u` (N, D)."""
+        return information(with_input(self.base, u, self.columns), self.x, self.free, self.sigma, self.scale)
+
+    def log_variances(self, u: jax.Array) -> jax.Array:
+        """log relative variances (the diagonal of F^-1, regularised) of the free parameters under inputs `u`."""
+        F = self.information(u)
         reg = 1e-12 * jnp.trace(F) / F.shape[0] * jnp.eye(F.shape[0])
-        excess = jnp.log(jnp.maximum(jnp.diag(jnp.linalg.inv(F + reg)), 1e-300)) - self.reference
-        excess = jnp.where(self.weights > 0, excess, -jnp.inf)
+        return jnp.log(jnp.maximum(jnp.diag(jnp.linalg.inv(F + reg)), 1e-300))
+
+    def __call__(self, z: jax.Array) -> tuple[jax.Array, jax.Array]:
+        if self.reference is None:
+            f = criterion_value(self.information(self.profile(z)), self.crit, self.weights)
+            return f, f
+        excess = jnp.where(self.weights > 0, self.log_variances(self.profile(z)) - self.reference, -jnp.inf)
         return SMOOTH * jax.nn.logsumexp(excess / SMOOTH), jnp.max(excess)
 
 
 SMOOTH = 0.01  # temperature (in log variance) of the smoothed maximum of a design against baselines
+
+
+def _against_baselines(loss: _Criterion, u: np.ndarray, baselines: list[np.ndarray]) -> tuple[np.ndarray, float]:
+    """(inputs, value) of the design `u` or, where it is not better, of the best baseline: the log
+    relative variances of all from one vmapped call, so that rounding cannot make a baseline worse
+    than itself; value max_j w_j log(var_j / min_baselines var_j) (<= 0 for a single baseline)."""
+    rows = np.stack([u, *baselines])
+    logvar = np.asarray(_log_variances(loss, jnp.asarray(rows)))
+    excess = np.where(np.asarray(loss.weights) > 0, logvar - logvar[1:].min(axis=0), -np.inf).max(axis=1)
+    k = int(np.argmin(np.where(np.isfinite(excess), excess, np.inf)))
+    return rows[k], float(excess[k])
+
+
+@eqx.filter_jit
+def _log_variances(loss: _Criterion, inputs: jax.Array) -> jax.Array:
+    """`_Criterion.log_variances` of each of the inputs (R, N, D) (vmapped)."""
+    return jax.vmap(loss.log_variances)(inputs)
 
 
 @eqx.filter_jit

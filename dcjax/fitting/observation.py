@@ -14,7 +14,8 @@ sample where the channel is clean, a fitted `y0_<state>` where it is noisy (`noi
 and a wrong start shifts every sample of the state's transient the same way: the fitted
 parameters move by several of their standard errors whatever the noise level (the ratio does not
 shrink with the noise). A defaulted `y0` searches the first sample +- `START_SPREAD` noise levels;
-beyond `MAX_FITTED_STARTS` such values in one fit (hundreds of recordings) the first samples stay."""
+beyond `MAX_FITTED_STARTS` such values in one fit (hundreds of recordings) the first samples stay.
+`AutoSubsteps` (nd auto) refuses fitted states, these too: `--initial S=measured` keeps a first sample."""
 
 import dataclasses
 from collections.abc import Mapping
@@ -125,19 +126,18 @@ class Observation:
             return "derivative"
         return 0.0
 
-    def with_defaults(self, model: Model, recordings: list[Recording], fit_allowed: bool = True) -> "Observation":
-        """The observation with each compared state that `initial` does not name decided from the
-        data (module docstring): `"fit"` where its channel is noisy in some recording (at most
-        `MAX_FITTED_STARTS` values in all, and only where `fit_allowed`), else the first sample
-        (the unnamed default); `chosen` holds a note per noisy state, for `notes`."""
-        compared = [s for s in self.observed(model).outputs if s in model.states and s not in self.initial]
-        compared = [s for s in compared if all(s in r.channels for r in recordings)]
-        share = {s: max(noise_share(r[s]) for r in recordings) for s in compared}
-        noisy = [s for s in compared if share[s] > NOISE_SHARE]
+    def with_defaults(self, compared: tuple[str, ...], recordings: list[Recording]) -> "Observation":
+        """The observation with each of the `compared` states (the observed model's `outputs`) that
+        `initial` does not name decided from the data (module docstring): `"fit"` where its channel
+        is noisy in some recording (at most `MAX_FITTED_STARTS` values in all), else the first
+        sample (the unnamed default); `chosen` holds a note per noisy state, for `notes`."""
+        open_states = [s for s in compared if s not in self.initial and all(s in r.channels for r in recordings)]
+        share = {s: max(noise_share(r[s]) for r in recordings) for s in open_states}
+        noisy = [s for s in open_states if share[s] > NOISE_SHARE]
         if not noisy:
             return self
         count = len(noisy) * len(recordings)
-        fits = fit_allowed and count <= MAX_FITTED_STARTS
+        fits = count <= MAX_FITTED_STARTS
         chosen = {}
         for s in noisy:
             level = f"{s}'s noise is {share[s]:.1e} of its range"
@@ -145,9 +145,8 @@ class Observation:
                 chosen[s] = (f"note: {level}: its initial value is fitted (y0_{s}, the first sample +- {START_SPREAD:g} noise sd); "
                              f"--initial {s}=measured starts at the first sample")  # fmt: skip
             else:
-                why = "nd auto" if not fit_allowed else f"{count} initial values > {MAX_FITTED_STARTS}"
-                chosen[s] = (f"note: {level}, but it starts at its first sample ({why}), which biases the fit by about its noise; "
-                             f"--initial {s}=fit fits it")  # fmt: skip
+                chosen[s] = (f"note: {level}, but it starts at its first sample ({count} initial values > {MAX_FITTED_STARTS}), "
+                             f"which biases the fit by about its noise; --initial {s}=fit fits it")  # fmt: skip
         initial = {**self.initial, **{s: "fit" for s in noisy}} if fits else dict(self.initial)
         return dataclasses.replace(self, initial=initial, chosen=chosen)
 

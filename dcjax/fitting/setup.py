@@ -185,7 +185,7 @@ class Plan:
         value may lie outside its range (a known value overrides it). `starts`: start rows in any
         form `start_rows` takes, instead of the parameters' values."""
         recordings, model = list(recordings), self.model
-        observation = self.observation.with_defaults(model, recordings, fit_allowed=not isinstance(self.integrator, AutoSubsteps))
+        observation = self.observation.with_defaults(model.outputs, recordings)
         resolved = resolve_parameters(params, recordings, model)
         own, extras = split_parameters(resolved, model)
         local = [n for n, p in own.items() if p.local and not p.vary]
@@ -195,9 +195,12 @@ class Plan:
         if isinstance(self.integrator, AutoSubsteps) and (
             local_fit or observation.fitted_states() or observation.offsets or observation.delays or observation.hold
         ):
+            noisy = [s for s in observation.fitted_states() if observation.defaulted(s)]
             raise ValueError(
                 "nd auto: not with local parameters, fitted initial states, offsets, delays or held inputs; give the sub-steps (--nd N)"
-            )
+                + (f" (the noisy {', '.join(noisy)} start fitted by default: --initial {','.join(s + '=measured' for s in noisy)} "
+                   "starts them at their first samples)" if noisy else "")
+            )  # fmt: skip
         integrator = self.integrator.integrator if isinstance(self.integrator, AutoSubsteps) else self.integrator
         layout, vec = search_vector(model, recordings, own, extras, observation)
         fixed = vec.fixed

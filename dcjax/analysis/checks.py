@@ -28,6 +28,7 @@ line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists
 """
 
 import dataclasses
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -67,10 +68,16 @@ def from_error(error: Exception) -> Finding | None:
     return None
 
 
-def noise_step(y: np.ndarray) -> float:
-    """The channel's sample-to-sample noise: 1.4826 MAD of its first differences / sqrt(2)."""
-    d = np.diff(y)
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
+def noise_step(y: np.ndarray, order: int = 1) -> float:
+    """The channel's white-noise sd from its `order`-th differences: 1.4826 MAD / sqrt(C(2k, k))
+    (white noise of sd s gives k-th differences of sd s sqrt(C(2k, k)): sqrt 2 for the first,
+    sample to sample; sqrt 70 for the fourth, which a smooth signal's own shape hardly reaches:
+    its differences shrink by about its sample step times its bandwidth per order; the median lets
+    steps and kinks count little). 0 for too few samples."""
+    d = np.diff(np.asarray(y, float), order)
+    if d.size == 0:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(math.comb(2 * order, order)))
 
 
 def quantisation_step(y: np.ndarray) -> float:

@@ -192,7 +192,7 @@ def design_input(
     m = get_model(model)
     given = _given(m, given)
     names = tuple(c for c in m.inputs if c not in given)
-    if isinstance(params, Mapping) or hasattr(params, "items"):  # a fit's params: its y0_, offset_, delay_ entries are not the model's
+    if hasattr(params, "items"):  # a fit's params: its y0_, offset_, delay_ entries are not the model's
         params = {k: params[k] for k in params if k in m.names or not str(k).startswith(OBSERVATION_PREFIXES)}
     n, lo, hi, per = _grid(m, params, duration, dt, u_range, hold, names)
     free_names, scales, weights = _free(m, params, criterion, fixed, scale)

@@ -22,6 +22,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..analysis.checks import noise_step
 from ..io.recording import Recording
 from ..models import Model
 from ..simulation.losses import Loss, get_loss
@@ -205,15 +206,9 @@ class Observation:
 
 
 def noise_level(y) -> float:
-    """The sd of a signal's white noise: 1.4826 MAD(fourth differences) / sqrt(70) (white noise of
-    sd s gives fourth differences of sd s sqrt(70); a smooth signal's own differences shrink by
-    about its sample step times its bandwidth per order, so that a clean transient of 60 samples
-    reads below 1e-6 of its range, where second differences read 6e-4; the median lets steps and
-    kinks count little). 0 for fewer than 5 samples."""
-    d = np.diff(np.asarray(y, float), 4)
-    if d.size == 0:
-        return 0.0
-    return float(1.482602218505602 * np.median(np.abs(d - np.median(d))) / np.sqrt(70.0))
+    """The white-noise sd a noisy start is judged by: `noise_step` of the fourth differences
+    (a clean transient of 60 samples reads below 1e-6 of its range, where second differences read 6e-4)."""
+    return noise_step(y, 4)
 
 
 def noise_share(y) -> float:

@@ -3,7 +3,11 @@ wall time the command prints as its last line, and the share of the work outside
 search (loading, checks, first estimate, writing, plots). Each configuration runs in a fresh
 process with the compilation cache off (DCJAX_NO_CACHE=1), so `compile` is a cold start.
 
-    python -m experiments.bench_each [--clean 20 75] [--runs 2] [--plots summary each]
+`--lengths LO HI`: the clean files only, of distinct lengths spaced geometrically from LO to HI
+samples (a folder of many lengths: `fit_each` pads close lengths into shared buckets,
+`dcjax.fitting.runs.length_buckets`), and the share of the wall spent compiling.
+
+    python -m experiments.bench_each [--clean 20 75] [--runs 2] [--plots summary each] [--lengths 400 1600]
 """
 
 import argparse
@@ -14,6 +18,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 from experiments.synthetic_fleet import write_fleet
 
@@ -33,17 +39,23 @@ def main():
     ap.add_argument("--clean", type=int, nargs="+", default=[20, 75])
     ap.add_argument("--runs", type=int, default=2)
     ap.add_argument("--plots", nargs="+", default=["summary", "each"])
+    ap.add_argument("--lengths", type=int, nargs=2, default=None, metavar=("LO", "HI"))
     args = ap.parse_args()
     for clean in args.clean:
         with tempfile.TemporaryDirectory() as tmp:
-            kinds = write_fleet(Path(tmp) / "data", clean=clean, samples=665)
+            lengths = None if args.lengths is None else sorted({int(n) for n in np.geomspace(*args.lengths, clean).round()})
+            if lengths is not None and len(lengths) != clean:
+                raise SystemExit(f"--lengths {args.lengths}: {clean} distinct lengths do not fit between them")
+            kinds = write_fleet(Path(tmp) / "data", clean=clean, samples=665, broken=lengths is None, lengths=lengths)
             files = [str(Path(tmp) / "data" / f"{k}.csv") for k in kinds]
             for plots in args.plots:
                 wall, parts = run(files, Path(tmp) / f"out-{plots}", args.runs, plots)
                 outside = parts["load+checks"] + parts["estimate"] + parts["write+plots"]
                 split = ", ".join(f"{k} {v:.1f} s" for k, v in parts.items())
-                print(f"{len(files)} files ({clean} clean), --runs {args.runs}, --plots {plots}: wall {wall:.1f} s (process); "
-                      f"{split}; outside the search {100 * outside / sum(parts.values()):.0f} %", flush=True)  # fmt: skip
+                what = f"{clean} clean" if lengths is None else f"{len(set(lengths))} lengths {lengths[0]}-{lengths[-1]}"
+                print(f"{len(files)} files ({what}), --runs {args.runs}, --plots {plots}: wall {wall:.1f} s (process); {split}; "
+                      f"outside the search {100 * outside / sum(parts.values()):.0f} %, compile {100 * parts['compile'] / sum(parts.values()):.0f} %",
+                      flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

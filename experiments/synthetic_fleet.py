@@ -22,6 +22,7 @@ peak), `n` samples at 1 ms. Broken ones (each from its own clean motor):
 """
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -70,19 +71,25 @@ def _write(path: Path, t, u, y) -> None:
     np.savetxt(path, table, delimiter=",", header="t,u_a,i_a,omega", comments="", fmt="%.12g")
 
 
-def write_fleet(folder: str | Path, clean: int = 20, samples: int = 665, broken: bool = True, seed: int = 0) -> dict[str, str]:
-    """Write the fleet's CSV files into `folder`; returns file stem -> kind ("clean" or a broken kind)."""
+def write_fleet(folder: str | Path, clean: int = 20, samples: int = 665, broken: bool = True, seed: int = 0,
+                lengths: Sequence[int] | None = None) -> dict[str, str]:  # fmt: skip
+    """Write the fleet's CSV files into `folder`; returns file stem -> kind ("clean" or a broken kind).
+    `lengths`: the clean files' sample counts, one each (default all `samples`)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     kinds: dict[str, str] = {}
     t = np.arange(samples) * 1e-3
+    if lengths is not None and len(lengths) != clean:
+        raise ValueError(f"lengths: one per clean file ({clean}), got {len(lengths)}")
     for k in range(clean):
+        t = np.arange(samples if lengths is None else int(lengths[k])) * 1e-3
         u = stepped_input(t, rng)
         _write(folder / f"motor{k:03d}.csv", t, u, simulate_motor(motor(rng), t, u, rng))
         kinds[f"motor{k:03d}"] = "clean"
     if not broken:
         return kinds
+    t = np.arange(samples) * 1e-3
     for kind in EXPECTED:
         p = motor(rng)
         tt = t if kind != "slow-rate" else np.arange(max(40, samples // 20)) * 0.02

@@ -30,12 +30,15 @@ import dataclasses
 import functools
 from collections.abc import Callable
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 import pytest
 import reference as ref
 from matrix_models import PMSM, EncoderDC, EncoderEulerDC, EncoderPMSM, EulerDC
 
 import dcjax
+from dcjax.simulation.joint import padded
 
 DT = 1e-4
 TOL = 1e-6
@@ -279,18 +282,47 @@ def test_the_reference_converges(model_key):
 @pytest.mark.slow
 @pytest.mark.parametrize("model_key", list(CASES))
 def test_each_fits_every_recording_alone(model_key):
-    """`fit_each` over recordings of two lengths and a file that does not exist: each recording
-    recovers the truth on its own, the missing file fails alone."""
+    """`fit_each` over recordings of three lengths (240, 216, 120 samples: at this budget one
+    padded program for an ODE model, `dcjax.fitting.runs.bucketed`) and a file that does not exist: each
+    recording recovers the truth on its own, its OF is its own unpadded one, the missing file
+    fails alone."""
     case = CASES[model_key]
-    recs, truth = data(model_key, "far", "plain")
+    close, truth = data(model_key, "close", "plain")
+    recs = (*close, data(model_key, "far", "plain")[0][1])
+    assert [len(r) for r in recs] == [240, 216, 120]
     params = start_parameters(case.model, truth, "plain", case, 1)
     integrator = None if case.discrete else dcjax.RK4(substeps=4)
     out = dcjax.fit_each([*recs, "no/such/file.csv"], case.model, params, integrator=integrator, runs=1, budget=70, polish=True)
     assert isinstance(out[-1], dcjax.FailedFit) and "no such file" in out[-1].error.lower()
-    for res in out[:-1]:
+    for res, rec in zip(out[:-1], recs):
         assert isinstance(res, dcjax.FitResult)
         err = errors(res, truth)
         assert max(err.values()) <= TOL, {k: f"{v:.1e}" for k, v in err.items()}
+        x = jnp.asarray([res.best_values[n] for n in res.names])
+        target = res.target([rec])  # unpadded
+        assert res.of == pytest.approx(float(target.objective(x)), rel=1e-6), rec.name  # ~1e-19: the rounding of the residuals
+        away = x * 1.05  # where the OF is not a cancellation: the padded problem's is the same to rounding
+        longer = eqx.tree_at(lambda t: t.problems, target, (padded(target.problems[0], 240),))
+        assert float(longer.objective(away)) == pytest.approx(float(target.objective(away)), rel=1e-12), rec.name
+    batch = [res.timing.get("batch", 1) for res in out[:-1]]
+    assert batch == ([1, 1, 1] if case.discrete else [3, 3, 3]), (
+        batch
+    )  # one padded program; a discrete map is not padded (it would run past the end)
+
+
+def test_length_buckets_minimise_compilations_plus_padded_search():
+    from dcjax.simulation.joint import length_buckets
+
+    lengths = [1000, 950, 500, 1000]
+    assert length_buckets(lengths, fes=1.0, compile_fes=1e9) == {1000: 1000, 950: 1000, 500: 1000}  # a cheap search: one program
+    assert length_buckets(lengths, fes=1e9, compile_fes=1.0) == {1000: 1000, 950: 950, 500: 500}  # a costly one: no padding
+    # 950 padded to 1000 costs 5e7 < 1e8 saved; 500 padded costs 5e8 more
+    assert length_buckets(lengths, fes=1e6, compile_fes=1e8) == {1000: 1000, 950: 1000, 500: 500}
+    spread = np.unique(np.geomspace(400, 1600, 20).round().astype(int))
+    for fes in (70, 2 * 140_000, 50 * 140_000):
+        to = length_buckets(spread, fes, 1e9)
+        cost = lambda buckets, fes=fes: sum(1e9 + fes * top * sum(v == top for v in buckets.values()) for top in set(buckets.values()))
+        assert cost(to) <= min(cost({n: n for n in spread}), cost({n: spread.max() for n in spread}))  # no worse than either extreme
 
 
 @pytest.mark.slow

@@ -135,12 +135,12 @@ def uninterrupted(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_interrupted_reproduction_resumes_to_the_same_report(tmp_path, sig, uninterrupted):
-    proc = _start_reproduce(tmp_path, SMALL, "pause_s=5")  # 5 s before each cell: the kill lands in the second
+    proc = _start_reproduce(tmp_path, SMALL, "pause_s=2")  # 2 s before each cell: the kill (within 0.1 s of the first) lands in the second
     store = Store(tmp_path / "store.jsonl")
     t0 = time.time()
     while not store.cells() and time.time() - t0 < 300:
         time.sleep(0.1)
-    os.kill(proc.pid, sig)  # the second cell is now waiting its 5 s
+    os.kill(proc.pid, sig)  # the second cell is now waiting its 2 s
     proc.wait(timeout=60)
     done = len(store.cells())
     assert done == 1, "the kill should land inside the second cell"

@@ -93,7 +93,7 @@ def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u, l
     rec = Recording(t=t, channels=chans, limit=limit)
     prob = make_problem(rec, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
     x = jnp.asarray([params[n] for n in model.names])
-    sim = simulate(x, prob)
+    sim = _simulate(x, prob)
     return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])
 
 
@@ -314,6 +314,7 @@ def _on_grid(u, n: int, what: str, d: int | None = None) -> np.ndarray:
 
 
 _information = eqx.filter_jit(information)
+_simulate = eqx.filter_jit(simulate)  # the eager calls: one compiled program per shape, not a new scan each call
 
 
 class _Criterion(eqx.Module):
@@ -450,7 +451,7 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
     sc = np.array([scale[k] for k in free_names])
     F = np.asarray(_information(prob, x, free, sigma, jnp.asarray(sc)))
     se = predicted_stderr(F, sc)
-    sim = np.asarray(simulate(x, prob))
+    sim = np.asarray(_simulate(x, prob))
     constants = {c: float(v) for c, v in given.items() if np.ndim(v) == 0}
     rec = Recording(t=t, channels={**{c: v for c, v in chans.items() if c not in constants}, **{s: sim[:, k] for k, s in enumerate(m.states)}},
                     limit=i_limit, name="design", constants=constants or None)  # fmt: skip

@@ -35,6 +35,7 @@ from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from ..models.parameters import Parameter, Parameters
 from ..simulation.integrators import RK4
+from ..simulation.joint import grid_length, paddable, padded
 from ..simulation.objectives import objective
 from ..simulation.problem import make_problem
 from .linear_form import linear_masses, linear_regression
@@ -58,9 +59,10 @@ def _output_errors(recording: Recording, model: Model, xs: list[np.ndarray]) -> 
     x = np.array(xs, float)
     ok = np.all(np.isfinite(x), axis=1)
     x[~ok] = x[ok][0] if ok.any() else 1.0
-    f = np.asarray(
-        _objective_jit(jnp.asarray(x), make_problem(recording, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model))
-    )
+    problem = make_problem(recording, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
+    if paddable(problem):  # masked to a power-of-two length: a folder of many lengths compiles a few programs
+        problem = padded(problem, grid_length(problem.n))
+    f = np.asarray(_objective_jit(jnp.asarray(x), problem))
     return np.where(ok & np.isfinite(f), f, np.inf)
 
 

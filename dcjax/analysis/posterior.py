@@ -200,18 +200,16 @@ def sample(
     jax.block_until_ready(states)
     t1 = time.perf_counter()
     pos, div, steps, acc = _draw(jax.random.split(k_draw, chains), states, params, target, noise, space, white, int(draws))
-    pos = np.asarray(jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos))
+    free, rhat, ess_bulk, ess_tail = map(np.asarray, _diagnostics(pos, space, white))
     t2 = time.perf_counter()
     names = space.free_names
-    free = pos[..., list(space.free)]
-    rhat = np.asarray(diag.rhat(free)) if chains > 1 else np.full(len(names), np.nan)
     return Posterior(
         names=names,
         draws=free,
         optimum={n: float(x[k]) for n, k in zip(names, space.free)},
-        rhat=dict(zip(names, map(float, np.atleast_1d(rhat)))),
-        ess_bulk=dict(zip(names, map(float, np.asarray(diag.ess_bulk(free))))),
-        ess_tail=dict(zip(names, map(float, np.asarray(diag.ess_tail(free))))),
+        rhat=dict(zip(names, map(float, rhat))),
+        ess_bulk=dict(zip(names, map(float, ess_bulk))),
+        ess_tail=dict(zip(names, map(float, ess_tail))),
         divergences=int(np.sum(div)),
         steps=float(np.mean(steps)),
         acceptance=float(np.mean(acc)),
@@ -220,6 +218,16 @@ def sample(
         wall={"warmup": t1 - t0, "sampling": t2 - t1},
         seed=int(seed),
     )
+
+
+@eqx.filter_jit
+def _diagnostics(pos, space: Space, white: Whitening):
+    """The draws' free entries in physical units, (chains, draws, F), their split R-hat (NaN for one
+    chain), bulk and tail ESS: one compiled program (blackjax's diagnostics run eagerly compile
+    some 200 small ones on each new shape)."""
+    free = jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos)[..., jnp.asarray(space.free)]
+    rhat = diag.rhat(free) if free.shape[0] > 1 else jnp.full(free.shape[-1], jnp.nan)
+    return free, jnp.atleast_1d(rhat), jnp.atleast_1d(diag.ess_bulk(free)), jnp.atleast_1d(diag.ess_tail(free))
 
 
 def _inside(white: Whitening, theta):

@@ -13,7 +13,7 @@ from ..io.recording import Recording
 from ..models import model_spec
 from ..simulation.integrators import AutoSubsteps, integrator_spec
 from .result import FitResult
-from .runs import run_setups
+from .runs import bucketed, run_setups
 from .setup import Plan, Search, Setup
 from .vector import base_name
 
@@ -34,13 +34,14 @@ def polish_runs(run_x, setup: Setup):
     return np.asarray(pol.x), np.asarray(pol.of_after), info
 
 
-def make_result(setup: Setup, search: Search, out, timing: dict) -> FitResult:
-    """The result of the runs `out` of one setup, after the optional polish."""
+def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | None = None) -> FitResult:
+    """The result of the runs `out` of one setup, after the optional polish (of the setup the runs
+    ran, `ran`: the setup itself or its padded form, `dcjax.fitting.runs.bucketed`)."""
     run_x = np.asarray(setup.space.to_physical(out.best_x))
     run_of = np.asarray(out.best_f)
     polish_info = None
     if search.polish:
-        run_x, run_of, polish_info = polish_runs(run_x, setup)
+        run_x, run_of, polish_info = polish_runs(run_x, ran or setup)
     best = int(np.argmin(run_of))
     memory = search.memory is not None
     settings = settings_of(setup, search)
@@ -71,11 +72,13 @@ def make_result(setup: Setup, search: Search, out, timing: dict) -> FitResult:
 
 
 def fit_setups(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:
-    """Every setup's result: the runs of setups of one structure in one compiled call, each
-    polished where the search says so (`plan.integrator` an `AutoSubsteps`: `fit_auto_substeps`)."""
+    """Every setup's result: the runs of setups of one structure in one compiled call (single
+    recordings of close lengths padded into one, `bucketed`), each polished where the search says
+    so (`plan.integrator` an `AutoSubsteps`: `fit_auto_substeps`)."""
     if isinstance(plan.integrator, AutoSubsteps):
         return fit_auto_substeps(plan, setups, progress)
-    return [make_result(s, plan.search, out, timing) for s, (out, timing) in zip(setups, run_setups(setups, plan.search, progress))]
+    ran = bucketed(setups, plan.search)
+    return [make_result(s, plan.search, out, timing, r) for s, r, (out, timing) in zip(setups, ran, run_setups(ran, plan.search, progress))]
 
 
 def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:

@@ -20,7 +20,7 @@ from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space, vector_space
 from ..simulation.integrators import Integrator, get_integrator
-from ..simulation.joint import JointProblem, Layout
+from ..simulation.joint import JointProblem, Layout, grid_length, padded
 from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
 from .observation import Observation
@@ -31,6 +31,16 @@ from .vector import base_name, layout_of, rows_of, transferred, unit_of
 def _simulate(x, target: JointProblem, r: int):
     """Recording r's states, one compile per problem structure and length, not one per call."""
     return target.simulate(x, r)
+
+
+def _simulate_on_grid(x, target: JointProblem, r: int) -> np.ndarray:
+    """`_simulate` with recording r's problem padded to its `grid_length` and the padding cut off
+    (the same states: the extra steps come after the end), so results of recordings of many
+    lengths (a folder's summary) share a few compiled programs."""
+    p = target.problems[r]
+    probs = list(target.problems)
+    probs[r] = padded(p, grid_length(p.n))
+    return np.array(_simulate(x, eqx.tree_at(lambda t: t.problems, target, tuple(probs)), r))[: p.n]
 
 
 if TYPE_CHECKING:
@@ -385,7 +395,7 @@ class FitResult:
         rec = recording or self.recording
         target = self.target([rec])
         x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
-        sim = np.array(_simulate(x, target, 0))
+        sim = _simulate_on_grid(x, target, 0)
         adj = target.adjustments(x, 0)
         if adj is not None and adj.offset is not None:
             for j, o in enumerate(self.model.output_index):

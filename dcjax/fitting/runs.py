@@ -15,6 +15,7 @@ on the device count. Data are arguments, not constants: recordings of equal stru
 executable (`EXECUTABLES`). With `progress` each device reports its runs' fractions done
 `PROGRESS_CHUNKS` times (`jax.debug.callback`, the same results)."""
 
+import dataclasses
 import itertools
 import time
 from collections.abc import Callable
@@ -25,7 +26,7 @@ import numpy as np
 from jax.sharding import PartitionSpec
 
 from ..models.space import Space
-from ..simulation.joint import JointProblem
+from ..simulation.joint import JointProblem, length_buckets, paddable, padded, stack_structure
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
@@ -35,6 +36,9 @@ from .setup import Search, Setup
 # (other weights, bounds or recordings of equal length) reuse them.
 EXECUTABLES = ExecutableCache(size=6)
 PROGRESS_CHUNKS = 20
+# `bucketed`: one compilation of a batch's runs costs about as much as this many FEs of one
+# sample (a 2-core Xeon: ~2 s against ~2 ns; `python -m experiments.bench_each --lengths 400 1600`).
+COMPILE_FES = 1e9
 
 
 def fitness(space: Space, target: JointProblem) -> FitnessFn:
@@ -187,6 +191,30 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
         timing |= {"batch": n, "batch_run_s": t2 - t1}
         return [(jax.tree.map(lambda a, b=b: a[b, :runs], outs), timing) for b in range(n)]
     return [(jax.tree.map(lambda a: a[:runs], outs), timing)]
+
+
+def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
+    """The setups with single recordings of one structure but several lengths padded into length
+    buckets, masked as in a joint fit, where one compilation fewer saves more than the padding
+    costs (`length_buckets`: a bucket's members are searched over its longest length, `runs x
+    budget` FEs each; a compilation weighs `COMPILE_FES`): a folder of many lengths compiles a
+    few programs, not one per length. A padded recording is scored over its padded problem (the
+    same OF to rounding, so its runs may differ in the last bits from a fit of it alone); a
+    length alone in its bucket is not padded."""
+    by_structure: dict = {}
+    for k, s in enumerate(setups):
+        if len(s.recordings) == 1 and paddable(s.problems[0]):
+            key = (stack_structure(s.problems[0]), leaf_signature(s.space), s.space.free, repr(s.integrator))
+            by_structure.setdefault(key, []).append(k)
+    out = list(setups)
+    for members in by_structure.values():
+        to = length_buckets([setups[k].problems[0].n for k in members], search.runs * search.budget, COMPILE_FES)
+        shared = {b for b in to.values() if sum(v == b for v in to.values()) > 1}  # buckets of several lengths
+        for k in members:
+            n = setups[k].problems[0].n
+            if to[n] in shared:
+                out[k] = dataclasses.replace(setups[k], problems=[padded(setups[k].problems[0], to[n])])
+    return out
 
 
 def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple]:

@@ -90,15 +90,51 @@ class Layout(eqx.Module):
 PAD_SHARE = 1.25  # pad a group's shorter recordings where that adds at most 25 % samples
 
 
-def _structure(problem: Problem):
+def stack_structure(problem: Problem):
     """What must be equal to stack problems, their length aside."""
     return jax.tree.structure(problem), tuple(np.shape(a)[1:] for a in jax.tree.leaves(problem))
 
 
-def _paddable(problem: Problem) -> bool:
+def paddable(problem: Problem) -> bool:
+    """Whether `padded` can lengthen the problem (an ODE model's state holds over steps of zero
+    length; a discrete-time model's map would run on past the end)."""
     from ..models.base import DiscreteModel
 
     return not isinstance(problem.model, DiscreteModel)
+
+
+def grid_length(n: int) -> int:
+    """The power of two at or above `n` (at least 64): evaluations of recordings of many lengths
+    padded to it share a few compiled programs (a padded problem's extra steps change nothing
+    before the recording's end)."""
+    return max(64, 1 << (int(n) - 1).bit_length())
+
+
+def length_buckets(lengths, fes: float, compile_fes: float) -> dict[int, int]:
+    """Each length -> the length it is padded to, the buckets that minimise the estimated cost
+    sum over buckets of (compile_fes + fes * top * members): one compilation costs as much as
+    `compile_fes` FEs of one sample, each of a bucket's members is searched for `fes` FEs over
+    the bucket's longest length `top`. An exact partition of the sorted lengths (dynamic
+    programming); equal lengths always share a bucket."""
+    count: dict[int, int] = {}
+    for n in lengths:
+        count[int(n)] = count.get(int(n), 0) + 1
+    u = sorted(count, reverse=True)
+    best, cut = [0.0], [0]  # best[j]: the cost of the j longest lengths; cut[j]: where its last bucket starts
+    for j in range(1, len(u) + 1):
+        members, options = 0, []
+        for i in range(j, 0, -1):  # the last bucket holds u[i-1] .. u[j-1], its top u[i-1]
+            members += count[u[i - 1]]
+            options.append((best[i - 1] + compile_fes + fes * u[i - 1] * members, i))
+        cost, i = min(options)
+        best.append(cost)
+        cut.append(i)
+    out, j = {}, len(u)
+    while j > 0:
+        i = cut[j]
+        out |= {n: u[i - 1] for n in u[i - 1 : j]}
+        j = i - 1
+    return out
 
 
 def padded(problem: Problem, n: int) -> Problem:
@@ -106,15 +142,20 @@ def padded(problem: Problem, n: int) -> Problem:
     holds), the last inputs and measurements repeated, `mask` 0 there (eq. 24's 1/N and the
     peaks stay the recording's own)."""
     k = n - problem.n
-    mask = jnp.ones(problem.n) if problem.mask is None else problem.mask
+    # NumPy on concrete arrays (a batch's recordings before its compiled call: jnp would compile
+    # each eager op for each length), jnp on traced ones (a joint fit's groups, inside its objective)
+    xp = jnp if isinstance(problem.h, jax.core.Tracer) else np
+    mask = xp.ones(problem.n) if problem.mask is None else problem.mask
     if k == 0:
-        return problem if problem.mask is not None else dataclasses.replace(problem, mask=mask)
+        return problem if problem.mask is not None else dataclasses.replace(problem, mask=jnp.asarray(mask))
 
     def hold(a):
-        return jnp.concatenate([a, jnp.repeat(a[-1:], k, axis=0)])
+        a = xp.asarray(a)
+        return jnp.asarray(xp.concatenate([a, xp.repeat(a[-1:], k, axis=0)]))
 
-    return dataclasses.replace(problem, h=jnp.concatenate([problem.h, jnp.zeros(k)]), u_start=hold(problem.u_start),
-                               u_end=hold(problem.u_end), y_meas=hold(problem.y_meas), mask=jnp.concatenate([mask, jnp.zeros(k)]))  # fmt: skip
+    return dataclasses.replace(problem, h=jnp.asarray(xp.concatenate([problem.h, xp.zeros(k)])),
+                               u_start=hold(problem.u_start), u_end=hold(problem.u_end), y_meas=hold(problem.y_meas),
+                               mask=jnp.asarray(xp.concatenate([mask, xp.zeros(k)])))  # fmt: skip
 
 
 class JointProblem(eqx.Module):
@@ -163,11 +204,11 @@ class JointProblem(eqx.Module):
         in all; not for a discrete-time model, whose map would run on past the end)."""
         out: dict = {}
         for r, p in enumerate(self.problems):
-            out.setdefault(_structure(p), []).append(r)
+            out.setdefault(stack_structure(p), []).append(r)
         groups = []
         for members in out.values():
             lengths = [self.problems[r].n for r in members]
-            if len(set(lengths)) == 1 or max(lengths) * len(members) <= PAD_SHARE * sum(lengths) and _paddable(self.problems[members[0]]):
+            if len(set(lengths)) == 1 or max(lengths) * len(members) <= PAD_SHARE * sum(lengths) and paddable(self.problems[members[0]]):
                 groups.append(tuple(members))
                 continue
             by_length: dict = {}

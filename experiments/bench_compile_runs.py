@@ -1,0 +1,44 @@
+"""Compilation time against the number of runs (issue: speed at scale, Done-when (b)): the runs are
+a batch dimension of one compiled program, so `--runs 4` should compile in about the time of
+`--runs 1`. Each configuration of `experiments.bench_joint` (one SD1-like recording; 24 of equal
+length, stacked; 16 of lengths 501 down to 201, a scan per length) is fitted with DE at `runs` 1
+and 4 in fresh processes with the compilation cache off; `compile` is the engine's own figure
+(`result.timing["compile_s"]`: tracing, lowering and XLA of the whole run), the median of
+`--repeat` processes.
+
+    python -m experiments.bench_compile_runs [--budget 14000] [--repeat 3]
+"""
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+
+CONFIGS = {"1 recording": "1,0", "24 equal-length (stacked)": "24,0", "16 lengths 501..201 (a scan each)": "16,20"}
+
+
+def compile_s(spec: str, runs: int, budget: int) -> float:
+    cmd = [sys.executable, "-m", "experiments.bench_joint", "--child", spec, "--runs", str(runs), "--budget", str(budget)]
+    p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "DCJAX_NO_CACHE": "1"}, check=True)
+    return json.loads(p.stdout.strip().splitlines()[-1])["compile_s"]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--budget", type=int, default=14_000)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores; DE, {args.budget} FEs a run, cache off, "
+          f"median of {args.repeat} fresh processes")  # fmt: skip
+    print(f"{'recordings':<36} {'runs 1':>8} {'runs 4':>8} {'ratio':>6}")
+    for label, spec in CONFIGS.items():
+        one, four = ([compile_s(spec, r, args.budget) for _ in range(args.repeat)] for r in (1, 4))
+        a, b = statistics.median(one), statistics.median(four)
+        print(f"{label:<36} {a:7.2f}s {b:7.2f}s {b / a:6.2f}   ({one} / {four})", flush=True)
+
+
+if __name__ == "__main__":
+    main()

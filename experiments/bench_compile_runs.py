@@ -2,7 +2,8 @@
 a batch dimension of one compiled program, so `--runs 4` should compile in about the time of
 `--runs 1`. Each configuration of `experiments.bench_joint` (one SD1-like recording; 24 of equal
 length, stacked; 16 of lengths 501 down to 201, a scan per length) is fitted with DE at `runs` 1
-and 4 in fresh processes with the compilation cache off; `compile` is the engine's own figure
+and 4 in fresh processes set up as the CLI starts (`use_host_devices`, `use_compiled_loops`)
+with the compilation cache off; `compile` is the engine's own figure
 (`result.timing["compile_s"]`: tracing, lowering and XLA of the whole run), the median of
 `--repeat` processes.
 
@@ -20,8 +21,19 @@ import sys
 CONFIGS = {"1 recording": "1,0", "24 equal-length (stacked)": "24,0", "16 lengths 501..201 (a scan each)": "16,20"}
 
 
+CHILD = """
+import json, sys
+import dcjax
+dcjax.use_host_devices()  # as the CLI starts: one XLA host device per core, compiled loops
+dcjax.use_compiled_loops()
+from experiments.bench_joint import child
+count, step = map(int, sys.argv[1].split(","))
+print(json.dumps(child(count, step, int(sys.argv[2]), int(sys.argv[3]), False)))
+"""
+
+
 def compile_s(spec: str, runs: int, budget: int) -> float:
-    cmd = [sys.executable, "-m", "experiments.bench_joint", "--child", spec, "--runs", str(runs), "--budget", str(budget)]
+    cmd = [sys.executable, "-c", CHILD, spec, str(runs), str(budget)]
     p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "DCJAX_NO_CACHE": "1"}, check=True)
     return json.loads(p.stdout.strip().splitlines()[-1])["compile_s"]
 

@@ -3,11 +3,11 @@ ranges) by dcjax against a hand-written numba DE of the same algorithm on one an
 (issue: speed at scale, Done-when (d)).
 
 The peer: the whole DE in one `numba.njit` function; each generation evaluates the 70 trials with
-one population objective, eq. 8-9 by RK4 with eq. 29's interpolated voltage, eq. 24 summed in the
-time loop, in two loop orders: `time-outer` (time outside, the members inside: the inner loop runs
-over contiguous member arrays, which LLVM vectorises) and `members-outer` (a `prange` over the
-members, each member's time loop inside: the members split over the threads, one parallel
-region per generation). dcjax: `dcjax.fit(SD1, params="table4", runs=1)` with compiled loops, its
+one population objective, eq. 8-9 by RK4 with eq. 29's interpolated voltage (1/La, 1/J hoisted),
+eq. 24 summed in the time loop, time outside and the members inside (the inner loop runs over
+contiguous member arrays, which LLVM vectorises); in parallel, a `prange` over one contiguous
+chunk of members per thread, each chunk's time loop outside its members (one parallel region per
+generation: a region per time step, 2,000 x 500 of them, costs more than it saves). dcjax: `dcjax.fit(SD1, params="table4", runs=1)` with compiled loops, its
 `timing["run_s"]` (the compiled run, no compilation). Each figure is the median of `--repeat`
 runs (seeds 0..), after one warm-up run; all in one process.
 
@@ -35,35 +35,14 @@ def peer(parallel: bool):
     import numba
     from numba import njit, prange
 
-    @njit(fastmath=False, parallel=parallel, cache=False)
-    def objective(x, t, u, im, wm):
-        """Eq. 24 of every row of x (P, 7): time outside and members inside, or (parallel) the members
-        split over the threads with each member's time loop inside."""
-        p, n = x.shape[0], t.shape[0]
+    @njit(fastmath=False, cache=False)
+    def time_outer(x, t, u, im, wm, lo, hi, out):
+        """Eq. 24 of rows lo..hi of x (P, 7) into `out`: time outside, the members inside (the inner
+        loop runs over contiguous member arrays, which LLVM vectorises)."""
+        p, n = hi - lo, t.shape[0]
         si, sw = 1.0 / np.max(np.abs(im)) ** 2, 1.0 / np.max(np.abs(wm)) ** 2
-        out = np.empty(p)
-        if parallel:
-            for m in prange(p):
-                ra, rla, cm, rj, tla, tlb, tlc = x[m, 0], 1.0 / x[m, 1], x[m, 2], 1.0 / x[m, 3], x[m, 4], x[m, 5], x[m, 6]
-                i, w = im[0], wm[0]
-                acc = 0.0
-                for k in range(1, n):
-                    h, ua, ub = t[k] - t[k - 1], u[k - 1], u[k]
-                    um = 0.5 * (ua + ub)
-                    k1, l1 = (ua - i * ra - cm * w) * rla, (cm * i - tla - tlb * w - tlc * w * w) * rj
-                    i2, w2 = i + 0.5 * h * k1, w + 0.5 * h * l1
-                    k2, l2 = (um - i2 * ra - cm * w2) * rla, (cm * i2 - tla - tlb * w2 - tlc * w2 * w2) * rj
-                    i3, w3 = i + 0.5 * h * k2, w + 0.5 * h * l2
-                    k3, l3 = (um - i3 * ra - cm * w3) * rla, (cm * i3 - tla - tlb * w3 - tlc * w3 * w3) * rj
-                    i4, w4 = i + h * k3, w + h * l3
-                    k4, l4 = (ub - i4 * ra - cm * w4) * rla, (cm * i4 - tla - tlb * w4 - tlc * w4 * w4) * rj
-                    i = i + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-                    w = w + h * (l1 + 2.0 * l2 + 2.0 * l3 + l4) / 6.0
-                    acc += si * (i - im[k]) ** 2 + sw * (w - wm[k]) ** 2
-                out[m] = acc / n if np.isfinite(acc) else np.inf
-            return out
-        ra, rla, cm, rj = x[:, 0].copy(), 1.0 / x[:, 1], x[:, 2].copy(), 1.0 / x[:, 3]
-        tla, tlb, tlc = x[:, 4].copy(), x[:, 5].copy(), x[:, 6].copy()
+        ra, rla, cm, rj = x[lo:hi, 0].copy(), 1.0 / x[lo:hi, 1], x[lo:hi, 2].copy(), 1.0 / x[lo:hi, 3]
+        tla, tlb, tlc = x[lo:hi, 4].copy(), x[lo:hi, 5].copy(), x[lo:hi, 6].copy()
         i, w, acc = np.full(p, im[0]), np.full(p, wm[0]), np.zeros(p)
         for k in range(1, n):
             h, ua, ub = t[k] - t[k - 1], u[k - 1], u[k]
@@ -81,7 +60,20 @@ def peer(parallel: bool):
                 w[m] = b + h * (l1 + 2.0 * l2 + 2.0 * l3 + l4) / 6.0
                 acc[m] += si * (i[m] - im[k]) ** 2 + sw * (w[m] - wm[k]) ** 2
         for m in range(p):
-            out[m] = acc[m] / n if np.isfinite(acc[m]) else np.inf
+            out[lo + m] = acc[m] / n if np.isfinite(acc[m]) else np.inf
+
+    @njit(fastmath=False, parallel=parallel, cache=False)
+    def objective(x, t, u, im, wm):
+        """Eq. 24 of every row of x (P, 7): serial, or (parallel) the members in one contiguous
+        chunk per thread, each chunk's time loop outside its members (one parallel region a call)."""
+        p = x.shape[0]
+        out = np.empty(p)
+        if parallel:
+            chunks = numba.get_num_threads()
+            for c in prange(chunks):
+                time_outer(x, t, u, im, wm, c * p // chunks, (c + 1) * p // chunks, out)
+        else:
+            time_outer(x, t, u, im, wm, 0, p, out)
         return out
 
     @njit(cache=False)
@@ -139,8 +131,8 @@ def main():
     times = [fit(s).timing["run_s"] for s in range(args.repeat)]
     ref = statistics.median(times)
     print(f"{'dcjax (one core)':<34} {ref:8.4f} s   best OFs {fit(0).of:.2e}")
-    for label, parallel, threads in (("numba time-outer, 1 thread", False, 1), ("numba members-outer, 1 thread", True, 1),
-                                     ("numba members-outer, 2 threads", True, 2)):  # fmt: skip
+    for label, parallel, threads in (("numba, 1 thread", False, 1), ("numba prange over chunks, 1 thread", True, 1),
+                                     ("numba prange over chunks, 2 threads", True, 2)):  # fmt: skip
         numba, run = peer(parallel)
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
         run(lo, hi, t, u, im, wm, 2, 0)  # compiles

@@ -201,10 +201,10 @@ def test_repeated_fits_do_not_accumulate_memory_mappings(sd1, monkeypatch):
 
     cache = sys.modules["dcjax.fitting.runs"].EXECUTABLES
     cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
-    monkeypatch.setattr(cache, "size", 2)  # fills after two calls: four more show whether evicted ones are freed
+    monkeypatch.setattr(cache, "size", 1)  # fills after one call: three more show whether evicted ones are freed
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
     counts = []
-    for k in range(cache.size + 4):  # distinct executables: the cache fills, then evicts
+    for k in range(cache.size + 3):  # distinct executables: the cache fills, then evicts
         fit(sd1, method=make_strategy(methods[k % 5], pop_size=70 - k // 5), runs=1, budget=140, seed=k)
         counts.append(maps())
     full = cache.size - 1

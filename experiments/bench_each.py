@@ -5,7 +5,7 @@ process with the compilation cache off (DCJAX_NO_CACHE=1), so `compile` is a col
 
 `--lengths LO HI`: the clean files only, of distinct lengths spaced geometrically from LO to HI
 samples (a folder of many lengths: `fit_each` pads close lengths into shared buckets,
-`dcjax.fitting.runs.length_buckets`), and the share of the wall spent compiling.
+`dcjax.simulation.joint.length_buckets`), and the share of the wall spent compiling.
 
     python -m experiments.bench_each [--clean 20 75] [--runs 2] [--plots summary each] [--lengths 400 1600]
 """

@@ -13,7 +13,7 @@ from ..io.recording import Recording
 from ..models import model_spec
 from ..simulation.integrators import AutoSubsteps, integrator_spec
 from .result import FitResult
-from .runs import bucketed, run_setups
+from .runs import run_setups
 from .setup import Plan, Search, Setup
 from .vector import base_name
 
@@ -73,12 +73,11 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
 
 def fit_setups(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:
     """Every setup's result: the runs of setups of one structure in one compiled call (single
-    recordings of close lengths padded into one, `bucketed`), each polished where the search says
-    so (`plan.integrator` an `AutoSubsteps`: `fit_auto_substeps`)."""
+    recordings of close lengths padded into one, `dcjax.fitting.runs.bucketed`), each polished
+    (as it ran) where the search says so (`plan.integrator` an `AutoSubsteps`: `fit_auto_substeps`)."""
     if isinstance(plan.integrator, AutoSubsteps):
         return fit_auto_substeps(plan, setups, progress)
-    ran = bucketed(setups, plan.search)
-    return [make_result(s, plan.search, out, timing, r) for s, r, (out, timing) in zip(setups, ran, run_setups(ran, plan.search, progress))]
+    return [make_result(s, plan.search, *ran) for s, ran in zip(setups, run_setups(setups, plan.search, progress))]
 
 
 def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:

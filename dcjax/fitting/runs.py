@@ -36,9 +36,6 @@ from .setup import Search, Setup
 # (other weights, bounds or recordings of equal length) reuse them.
 EXECUTABLES = ExecutableCache(size=6)
 PROGRESS_CHUNKS = 20
-# `bucketed`: one compilation of a batch's runs costs about as much as this many FEs of one
-# sample (a 2-core Xeon: ~2 s against ~2 ns; `python -m experiments.bench_each --lengths 400 1600`).
-COMPILE_FES = 1e9
 
 
 def fitness(space: Space, target: JointProblem) -> FitnessFn:
@@ -193,6 +190,11 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
     return [(jax.tree.map(lambda a: a[:runs], outs), timing)]
 
 
+# `bucketed`: one compilation of a batch's runs costs about as much as this many FEs of one
+# sample (a 2-core Xeon: ~2 s against ~2 ns; `python -m experiments.bench_each --lengths 400 1600`).
+COMPILE_FES = 1e9
+
+
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
     """The setups with single recordings of one structure but several lengths padded into length
     buckets, masked as in a joint fit, where one compilation fewer saves more than the padding
@@ -204,7 +206,7 @@ def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
     by_structure: dict = {}
     for k, s in enumerate(setups):
         if len(s.recordings) == 1 and paddable(s.problems[0]):
-            key = (stack_structure(s.problems[0]), leaf_signature(s.space), s.space.free, repr(s.integrator))
+            key = (stack_structure(s.problems[0]), s.space.free, s.space.log, len(s.space.names), repr(s.integrator))
             by_structure.setdefault(key, []).append(k)
     out = list(setups)
     for members in by_structure.values():
@@ -218,8 +220,10 @@ def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
 
 
 def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple]:
-    """Every setup's runs (`run_group`), the setups of one `group_key` in one compiled call: per
-    setup, in order, its runs' outputs and the timing."""
+    """Every setup's runs (`run_group`), the setups of one `group_key` in one compiled call (single
+    recordings of close lengths padded into one, `bucketed`): per setup, in order, its runs'
+    outputs, the timing and the setup as it ran (itself, or padded)."""
+    setups = bucketed(setups, search)
     groups: dict = {}
     for k, s in enumerate(setups):
         groups.setdefault(group_key(s), []).append(k)
@@ -234,8 +238,8 @@ def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple
             share = len(members) / len(setups)
             base = done / len(setups)
             report = None if overall is None else lambda f, base=base, share=share: overall(base + share * f)
-            for k, res in zip(members, run_group([setups[k] for k in members], search, program, report)):
-                out[k] = res
+            for k, (outs, timing) in zip(members, run_group([setups[k] for k in members], search, program, report)):
+                out[k] = (outs, timing, setups[k])
             done += len(members)
             if report is not None:
                 report(1.0)

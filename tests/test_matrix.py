@@ -325,6 +325,24 @@ def test_length_buckets_minimise_compilations_plus_padded_search():
         assert cost(to) <= min(cost({n: n for n in spread}), cost({n: spread.max() for n in spread}))  # no worse than either extreme
 
 
+@pytest.mark.parametrize("model_key", ["dc", "discrete"])
+def test_a_result_simulates_on_a_power_of_two_grid_to_the_same_bits(model_key):
+    """`FitResult.simulate` pads the problem to `grid_length` (a folder's summary compiles a few
+    programs) and cuts the padding off: the states are those of the unpadded problem, bit for bit."""
+    from dcjax.fitting.result import _simulate, _simulate_on_grid
+    from dcjax.simulation.joint import grid_length, joint_problem
+
+    assert [grid_length(n) for n in (1, 64, 65, 240, 256, 257)] == [64, 64, 128, 256, 256, 512]
+    case = CASES[model_key]
+    (rec,), truth = data(model_key, "one", "plain")
+    prob = dcjax.make_problem(rec, None if case.discrete else dcjax.RK4(substeps=4), model=case.model)
+    target = joint_problem([prob])
+    x = jnp.asarray([truth[n] for n in case.model.names])
+    on_grid = _simulate_on_grid(x, target, 0)
+    assert on_grid.shape == (240, len(case.model.states))
+    np.testing.assert_array_equal(on_grid, np.asarray(_simulate(x, target, 0)))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("model_key", list(CASES))
 def test_design_designs_every_recorded_input(model_key):

@@ -1,14 +1,23 @@
 import os
+import shutil
+import tempfile
 
 import jax
 import pytest
 
-# The CLI turns on JAX's persistent compilation cache in the user's cache folder; tests call it
-# in-process and spawn it, so keep it off (tests/test_cache.py turns it on in a temporary folder).
-os.environ.setdefault("DCJAX_NO_CACHE", "1")
-
 import dcjax
 from dcjax import datasets
+
+# One persistent compilation cache for this test session, in a temporary folder shared by the
+# xdist workers (they inherit the environment of the process that imports this first) and by the
+# commands the tests spawn: a program compiled by one test is loaded by every other that builds
+# the same one (most of the suite's time is compilation). The user's own cache is never touched;
+# tests/test_cache.py checks the cache itself in folders of its own.
+_OWN_CACHE = "DCJAX_TEST_CACHE_DIR" not in os.environ
+if _OWN_CACHE:
+    os.environ["DCJAX_TEST_CACHE_DIR"] = tempfile.mkdtemp(prefix="dcjax-test-xla-")
+os.environ["DCJAX_CACHE_DIR"] = os.environ["DCJAX_TEST_CACHE_DIR"]
+os.environ.pop("DCJAX_NO_CACHE", None)
 
 # The XLA setting the CLI and the experiments run with (`dcjax.use_compiled_loops`: a time loop
 # compiled as one function), so that in-process tests run what users run; in this test process
@@ -28,3 +37,9 @@ def sd1_true():
 
 def pytest_configure(config):
     assert jax.config.jax_enable_x64, "dcjax must enable float64"
+    dcjax.use_compilation_cache(min_compile_seconds=0.2)
+
+
+def pytest_unconfigure(config):
+    if _OWN_CACHE:
+        shutil.rmtree(os.environ["DCJAX_TEST_CACHE_DIR"], ignore_errors=True)

@@ -190,6 +190,23 @@ def test_cli_module_entry_bad_file(tmp_path):
     assert p.returncode != 0 and "all zero" in p.stderr and "Traceback" not in p.stderr
 
 
+def test_a_short_search_compiles_quick_to_the_same_bits(sd1, monkeypatch):
+    """A run shorter than about a compilation is compiled at LLVM level 2 (`QUICK_COMPILE`, about
+    half the compile time): the same runs as at XLA's default level 3; a long run keeps the
+    default, and the level depends on one run's work, not on how many runs there are."""
+    runs = sys.modules["dcjax.fitting.runs"]
+    assert runs.compiler_options(1e6) == runs.QUICK_COMPILE and runs.compiler_options(1e12) is None
+    seen = []
+    monkeypatch.setattr(runs, "compiler_options", lambda work: seen.append(work) or runs.QUICK_COMPILE)
+    quick = dcjax.fit(sd1, runs=2, budget=700, seed=3)
+    dcjax.fit(sd1, runs=4, budget=700, seed=3)
+    assert seen == [700 * len(sd1.t)] * 2  # RK4, one sub-step: budget x samples, whatever the runs
+    monkeypatch.setattr(runs, "compiler_options", lambda work: None)
+    default = dcjax.fit(sd1, runs=2, budget=700, seed=3)
+    assert not default.timing["reused_executable"]  # its own program, not the quick one
+    assert np.array_equal(quick.run_of, default.run_of) and np.array_equal(quick.run_params, default.run_params)
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs Linux /proc")
 def test_repeated_fits_do_not_accumulate_memory_mappings(sd1, monkeypatch):

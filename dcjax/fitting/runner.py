@@ -72,14 +72,15 @@ class ExecutableCache:
         self.size = size
         self._items: OrderedDict = OrderedDict()
 
-    def get(self, key, build: Callable[[], Callable], args) -> tuple[Callable, bool]:
+    def get(self, key, build: Callable[[], Callable], args, options: dict | None = None) -> tuple[Callable, bool]:
         """(compiled executable, reused?) for `key`; on a miss `build()` returns a jitted function
-        that is lowered and compiled for `args`, and its tracing caches are released."""
+        that is lowered and compiled for `args` with XLA's compiler `options` (None: its
+        defaults), and its tracing caches are released. `key` must include the options."""
         hit = self._items.get(key)
         reused = hit is not None
         if not reused:
             fn = build()
-            hit = fn.lower(*args).compile()
+            hit = fn.lower(*args).compile(compiler_options=options)
             clear = getattr(fn, "clear_cache", None)
             if clear is not None:
                 clear()

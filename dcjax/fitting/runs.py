@@ -169,10 +169,12 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
     args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
-    cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show)
+    options = compiler_options(search.budget * max(sample_steps(s) for s in setups))
+    cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
+                 tuple(sorted((options or {}).items())))  # fmt: skip
     t0 = time.perf_counter()
     build = lambda: _compiled_runs(program, search.memory, mesh, setups[0].space.dim, show, batched, axis)
-    compiled, reused = EXECUTABLES.get(cache_key, build, args)
+    compiled, reused = EXECUTABLES.get(cache_key, build, args, options)
     t1 = time.perf_counter()
     if report is not None:
         _METERS[token] = ProgressMeter(report, (n + pad) * int(keys.shape[0]))
@@ -190,9 +192,29 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
     return [(jax.tree.map(lambda a: a[:runs], outs), timing)]
 
 
-# `bucketed`: one compilation of a batch's runs costs about as much as this many FEs of one
-# sample (a 2-core Xeon: ~2 s against ~2 ns; `python -m experiments.bench_each --lengths 400 1600`).
+# `bucketed`, `compiler_options`: one compilation of a batch's runs costs about as much as this
+# many FEs of one sample (a 2-core Xeon: ~2 s against ~2 ns; `python -m experiments.bench_each
+# --lengths 400 1600`).
 COMPILE_FES = 1e9
+
+# XLA:CPU compiles at LLVM optimisation level 3 by default. At level 2 a search program compiles
+# in about half the time (SD1: DE 1.5 -> 0.7 s, ABC 4.1 -> 1.6 s) to the same bits for the
+# paper's methods and memory (CMA-ES's linear algebra differs in the last bits), and its runs take
+# 0-10 % longer: `python -m experiments.bench_compile_level`.
+QUICK_COMPILE = {"xla_backend_optimization_level": 2}
+
+
+def sample_steps(setup: Setup) -> int:
+    """Integration steps of one evaluation of `setup` (its samples times the sub-steps)."""
+    return sum(p.n for p in setup.problems) * int(getattr(setup.integrator, "substeps", 1))
+
+
+def compiler_options(run_work: float) -> dict | None:
+    """`QUICK_COMPILE` where one run is short against a compilation (`run_work`: its one-sample
+    FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: with up to 8 runs a
+    device the <= 10 % lost is less than the ~40 % of a compilation saved), else XLA's defaults
+    (None). Per run, so that neither the number of runs nor a batch changes a run's program."""
+    return QUICK_COMPILE if run_work < COMPILE_FES / 3 else None
 
 
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:

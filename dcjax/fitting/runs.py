@@ -198,9 +198,9 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
 COMPILE_FES = 1e9
 
 # XLA:CPU compiles at LLVM optimisation level 3 by default. At level 2 a search program compiles
-# in about half the time (SD1: DE 1.5 -> 0.7 s, ABC 4.1 -> 1.6 s) to the same bits for the
+# in about half the time (SD1: DE 1.7 -> 0.8 s, ABC 3.9 -> 1.7 s) to the same bits for the
 # paper's methods and memory (CMA-ES's linear algebra differs in the last bits), and its runs take
-# 0-10 % longer: `python -m experiments.bench_compile_level`.
+# up to 14 % longer: `python -m experiments.bench_compile_level`.
 QUICK_COMPILE = {"xla_backend_optimization_level": 2}
 
 
@@ -211,8 +211,8 @@ def sample_steps(setup: Setup) -> int:
 
 def compiler_options(run_work: float) -> dict | None:
     """`QUICK_COMPILE` where one run is short against a compilation (`run_work`: its one-sample
-    FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: with up to 8 runs a
-    device the <= 10 % lost is less than the ~40 % of a compilation saved), else XLA's defaults
+    FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: the ~40 % of a
+    compilation saved outweighs the <= 14 % of the search lost up to ~8 runs a device), else XLA's defaults
     (None). Per run, so that neither the number of runs nor a batch changes a run's program."""
     return QUICK_COMPILE if run_work < COMPILE_FES / 3 else None
 

@@ -26,7 +26,7 @@ import numpy as np
 from jax.sharding import PartitionSpec
 
 from ..models.space import Space
-from ..simulation.joint import JointProblem, length_buckets, paddable, padded, stack_structure
+from ..simulation.joint import JointProblem, StackedJoint, length_buckets, paddable, padded, stack_structure, stacked_target
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
@@ -38,7 +38,7 @@ EXECUTABLES = ExecutableCache(size=6)
 PROGRESS_CHUNKS = 20
 
 
-def fitness(space: Space, target: JointProblem) -> FitnessFn:
+def fitness(space: Space, target: JointProblem | StackedJoint) -> FitnessFn:
     """The population OF of unit-cube points: the (joint-weighted) eq. 24/27 of every recording
     (or the fit's loss), with each recording's parameters and adjustments (`JointProblem`)."""
 
@@ -136,7 +136,13 @@ def _group_args(setups: list[Setup], search: Search, pad: int):
     prec = None if search.memory is None else [s.precision() for s in setups]
     if len(setups) == 1 and pad == 0:
         s = setups[0]
-        return s.target, s.space, None if prec is None else jnp.asarray(prec[0]), None if s.starts is None else jnp.asarray(s.starts), 0
+        return (
+            stacked_target(s.target),
+            s.space,
+            None if prec is None else jnp.asarray(prec[0]),
+            None if s.starts is None else jnp.asarray(s.starts),
+            0,
+        )
     dim = setups[0].space.dim
     k_max = max((s.starts.shape[0] for s in setups if s.starts is not None), default=0)
     z0 = None if k_max == 0 else np.stack([np.full((k_max, dim), np.nan) if s.starts is None else

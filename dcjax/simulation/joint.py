@@ -262,6 +262,41 @@ class JointProblem(eqx.Module):
         return simulate(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
 
 
+class StackedJoint(eqx.Module):
+    """A `JointProblem` whose recordings form one stacked group, held stacked (`stacked_target`):
+    the problems' leaves carry a leading recordings axis, so a compiled objective takes one set
+    of arrays and makes one vmapped call whatever the number of recordings (a `JointProblem`
+    stacks and splits them inside the program: its size, and XLA's compile time, grow with the
+    count). The same OF to the bit: the same vmapped call, and the weighted sum in recording
+    order."""
+
+    stacked: Problem
+    weights: tuple[float, ...] = eqx.field(static=True)
+    layout: Layout = eqx.field(static=True)
+
+    def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
+        ofs = jax.vmap(objective, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
+        acc = 0 + self.weights[0] * ofs[0]  # as `JointProblem.objective`, term by term (a scan's body contracts differently)
+        for r in range(1, len(self.weights)):
+            acc = acc + self.weights[r] * ofs[r]
+        return acc
+
+
+def stacked_target(target: JointProblem) -> "JointProblem | StackedJoint":
+    """`target` held stacked (`StackedJoint`) where its recordings, two or more, form one group
+    (`JointProblem.groups`), share the model's parameters and have no adjustments; else itself.
+    On concrete arrays (NumPy): call it outside a traced function."""
+    n = len(target.problems)
+    if n < 2 or not target.layout.shared or target.layout.adjusted or target.groups() != [tuple(range(n))]:
+        return target
+    top = max(p.n for p in target.problems)
+    probs = (
+        list(target.problems) if all(p.n == top for p in target.problems) else [padded(p, top) for p in target.problems]
+    )  # as `_stacked`
+    stacked = jax.tree.map(lambda *a: np.stack([np.asarray(v) for v in a]), *probs)
+    return StackedJoint(stacked, target.weights, target.layout)
+
+
 def joint_problem(problems: list[Problem], weights=None, layout: Layout | None = None) -> JointProblem:
     """`JointProblem` of `problems` (default equal shares, the model's parameters shared)."""
     problems = list(problems)

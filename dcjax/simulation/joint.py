@@ -158,6 +158,21 @@ def padded(problem: Problem, n: int) -> Problem:
                                mask=jnp.asarray(xp.concatenate([mask, xp.zeros(k)])))  # fmt: skip
 
 
+def to_common_length(problems: list[Problem]) -> list[Problem]:
+    """A group's problems as one stack takes them: all `padded` to the longest where lengths differ."""
+    n = max(p.n for p in problems)
+    return problems if all(p.n == n for p in problems) else [padded(p, n) for p in problems]
+
+
+def weighted_in_order(weights: tuple[float, ...], ofs) -> Array:
+    """sum_r w_r OF_r term by term in recording order (the same bits however the OFs were
+    evaluated; a scan's sum contracts differently under jit)."""
+    acc = 0 + weights[0] * ofs[0]
+    for r in range(1, len(weights)):
+        acc = acc + weights[r] * ofs[r]
+    return acc
+
+
 class JointProblem(eqx.Module):
     """One or several recordings' problems, each recording's share of the objective (`weights`,
     static: eq. 24 per recording, summed) and the `Layout` of the search vector."""
@@ -193,10 +208,7 @@ class JointProblem(eqx.Module):
                 stacked = self._stacked(x, group)
                 for k, r in enumerate(group):
                     ofs[r] = stacked[k]
-        acc = 0 + self.weights[0] * ofs[0]  # in order, as a sum over the recordings one by one
-        for r in range(1, len(self.weights)):
-            acc = acc + self.weights[r] * ofs[r]
-        return acc
+        return weighted_in_order(self.weights, ofs)
 
     def groups(self) -> list[tuple[int, ...]]:
         """The recordings in groups that one scan evaluates: equal structure, and equal length or
@@ -221,11 +233,7 @@ class JointProblem(eqx.Module):
         """(len(group), *batch, ...): `fn` (the objective, or the residuals) of the group's
         recordings from one vmapped call over their stacked (padded) problems."""
         lay = self.layout
-        probs = [self.problems[r] for r in group]
-        n = max(p.n for p in probs)
-        if any(p.n != n for p in probs):
-            probs = [padded(p, n) for p in probs]
-        stacked = jax.tree.map(lambda *a: jnp.stack(a), *probs)
+        stacked = jax.tree.map(lambda *a: jnp.stack(a), *to_common_length([self.problems[r] for r in group]))
         xm = lay.model_x(x, group[0]) if lay.shared else jnp.stack([lay.model_x(x, r) for r in group])
         adj = None if not lay.adjusted else jax.tree.map(lambda *a: jnp.stack(a), *[self.adjustments(x, r) for r in group])
         fn = objective if fn is None else fn
@@ -276,10 +284,7 @@ class StackedJoint(eqx.Module):
 
     def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
         ofs = jax.vmap(objective, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
-        acc = 0 + self.weights[0] * ofs[0]  # as `JointProblem.objective`, term by term (a scan's body contracts differently)
-        for r in range(1, len(self.weights)):
-            acc = acc + self.weights[r] * ofs[r]
-        return acc
+        return weighted_in_order(self.weights, ofs)
 
 
 def stacked_target(target: JointProblem) -> "JointProblem | StackedJoint":
@@ -289,11 +294,7 @@ def stacked_target(target: JointProblem) -> "JointProblem | StackedJoint":
     n = len(target.problems)
     if n < 2 or not target.layout.shared or target.layout.adjusted or target.groups() != [tuple(range(n))]:
         return target
-    top = max(p.n for p in target.problems)
-    probs = (
-        list(target.problems) if all(p.n == top for p in target.problems) else [padded(p, top) for p in target.problems]
-    )  # as `_stacked`
-    stacked = jax.tree.map(lambda *a: np.stack([np.asarray(v) for v in a]), *probs)
+    stacked = jax.tree.map(lambda *a: np.stack([np.asarray(v) for v in a]), *to_common_length(list(target.problems)))
     return StackedJoint(stacked, target.weights, target.layout)
 
 

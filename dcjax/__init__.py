@@ -32,6 +32,7 @@ from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa:
 from .models import DC, MODELS, PMSM, DCCoulomb, DiscreteModel, Model, Servo, get_model  # noqa: E402
 from .models.bounds import Bounds  # noqa: E402
 from .models.parameters import Parameter, Parameters  # noqa: E402
+from .models.priors import HalfNormalPrior, LogNormalPrior, NormalPrior, Prior  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
 from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Diffrax, Euler, Integrator  # noqa: E402
 from .simulation.losses import L1, LOSSES, SSE, Huber, Loss  # noqa: E402
@@ -86,6 +87,10 @@ __all__ = [
     "MEMORIES",
     "Parameter",
     "Parameters",
+    "Prior",
+    "NormalPrior",
+    "LogNormalPrior",
+    "HalfNormalPrior",
     "initial_estimate",
     "design_input",
     "FitResult",

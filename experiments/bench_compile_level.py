@@ -1,12 +1,13 @@
-"""XLA:CPU's LLVM optimisation level for the compiled runs: compile and search time at the default
-(3) and at 2 (`dcjax.fitting.runs.QUICK_COMPILE`), and whether both give the same bits. The runs
-pick level 2 where a search is short against its compilation (`compiler_options`); this prints
-the figures behind that rule.
+"""XLA:CPU's compiler options for the compiled runs: compile and search time at XLA's defaults
+(LLVM level 3, fusion emitters on), at level 2, and at level 2 without the fusion emitters
+(`dcjax.compiling.QUICK`, what `dcjax.fitting.runs.QUICK_COMPILE` is), and whether each gives the
+defaults' bits. The runs pick QUICK where a search is short against its compilation
+(`compiler_options`); this prints the figures behind that rule.
 
-Each case is fitted at both levels in one process set up as the CLI starts (`use_compiled_loops`,
-one device, no compilation cache): `compile` is the engine's own figure (tracing, lowering
-and XLA of the whole run; each level compiles afresh), `search` the median of `--repeat` runs of
-the compiled program.
+Each case is fitted under each option set in one process set up as the CLI starts
+(`use_compiled_loops`, one device, no compilation cache): `compile` is the engine's own figure
+(tracing, lowering and XLA of the whole run; each option set compiles afresh), `search` the
+median of `--repeat` runs of the compiled program.
 
     python -m experiments.bench_compile_level [--repeat 5]
 """
@@ -21,6 +22,7 @@ import numpy as np
 
 import dcjax
 from dcjax import datasets
+from dcjax.compiling import QUICK
 from dcjax.fitting import runs
 
 dcjax.use_compiled_loops()  # before any JAX computation, as the CLI (no compilation cache)
@@ -42,8 +44,11 @@ def cases() -> dict:
     }
 
 
-def measure(fit, level: int, repeat: int) -> tuple[float, float, str]:
-    runs.compiler_options = lambda work: {"xla_backend_optimization_level": level}
+OPTIONS = {"default": {}, "level 2": {"xla_backend_optimization_level": 2}, "QUICK": QUICK}
+
+
+def measure(fit, options: dict, repeat: int) -> tuple[float, float, str]:
+    runs.compiler_options = lambda work: options
     runs.EXECUTABLES.clear()
     first = fit()
     search = statistics.median([fit().timing["run_s"] for _ in range(repeat)])
@@ -58,21 +63,22 @@ def main():
     rule, picked = runs.compiler_options, []
 
     def recorded(work):
-        picked.append("2" if rule(work) else "3")
+        picked.append("QUICK" if rule(work) else "default")
         return rule(work)
 
-    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, 1 XLA device; compile once per level, search: median "
-          f"of {args.repeat}")  # fmt: skip
-    print(
-        f"{'case':<30} {'compile 3':>9} {'compile 2':>9} {'ratio':>6} {'search 3':>9} {'search 2':>9} {'ratio':>6} {'bits':>5} {'rule':>5}"
-    )
+    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, 1 XLA device; compile once per option set, search: "
+          f"median of {args.repeat}; ratios and bits against XLA's defaults")  # fmt: skip
+    head = f"{'case':<30}" + "".join(f" {'compile ' + k:>15} {'search ' + k:>14} {'bits':>5}" for k in OPTIONS)
+    print(head + f" {'rule':>8}")
     for label, fit in cases().items():
-        c3, s3, b3 = measure(fit, 3, args.repeat)
-        c2, s2, b2 = measure(fit, 2, args.repeat)
+        row, base = f"{label:<30}", None
+        for options in OPTIONS.values():
+            c, s, b = measure(fit, options, args.repeat)
+            base = base or (c, s, b)
+            row += f" {c:6.2f}s ({c / base[0]:4.2f}) {s:6.3f}s ({s / base[1]:4.2f}) {'same' if b == base[2] else 'DIFF':>5}"
         runs.compiler_options = recorded
         fit()
-        print(f"{label:<30} {c3:8.2f}s {c2:8.2f}s {c2 / c3:6.2f} {s3:8.3f}s {s2:8.3f}s {s2 / s3:6.2f} {'same' if b3 == b2 else 'DIFF':>5} "
-              f"{picked[-1]:>5}", flush=True)  # fmt: skip
+        print(row + f" {picked[-1]:>8}", flush=True)
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ quadrature, the reflecting NUTS step against a truncated Gaussian's exact moment
 `dcjax sample` on SD1 with 1 % noise from the independent NumPy RK4 (`tests/reference.py`)."""
 
 import math
+import re
 
 import blackjax
 import jax
@@ -61,6 +62,50 @@ def test_reflecting_nuts_samples_a_gaussian_cut_by_walls():
         assert pos[:, k].std() == pytest.approx(dist.std(), rel=0.05)
 
 
+def test_own_priors_are_their_densities_within_the_range_against_scipy():
+    """`Parameter(prior=...)`: each prior's log density differs from scipy's by a constant, a
+    log-scale parameter's term adds log x (the Jacobian against the log-uniform base); specs round
+    trip through a Parameters' dict (result.json), and a bad spec is one line naming the field."""
+    from scipy import stats
+
+    from dcjax.analysis.posterior import prior_term
+    from dcjax.models.priors import HalfNormalPrior, LogNormalPrior, NormalPrior, prior_from_spec
+
+    cases = [
+        (NormalPrior(2.0, 0.5), stats.norm(2.0, 0.5).logpdf, [1.1, 2.3, 3.7]),
+        (LogNormalPrior(1e-4, 0.7), stats.lognorm(0.7, scale=1e-4).logpdf, [3e-5, 1e-4, 4e-4]),
+        (HalfNormalPrior(1e-3), stats.halfnorm(scale=1e-3).logpdf, [0.0, 5e-4, 2.5e-3]),
+    ]
+    for prior, logpdf, xs in cases:
+        ours = np.array([float(prior.log_density(x)) for x in xs]) - logpdf(np.array(xs))
+        assert np.ptp(ours) < 1e-12 * max(1.0, np.abs(ours).max()), (prior, ours)
+        assert prior_from_spec(prior.spec) == prior
+    table4 = dcjax.DC().parameters("table4")
+    space = dcjax.make_space(dcjax.DC(), dcjax.Bounds(table4.lower, table4.upper, dcjax.DC().names))
+    log_space = dcjax.Space(space.bounds, space.values, space.free, space.names, (space.names.index("J"),))
+    term = prior_term(log_space, {"J": "lognormal(1e-4,0.7)", "Ra": NormalPrior(40.0, 5.0)})
+    x = np.asarray(space.to_physical(jnp.full(7, 0.3)))
+    x2 = x.copy()
+    x2[3], x2[0] = 3 * x[3], 45.0
+    want = (stats.lognorm(0.7, scale=1e-4).logpdf(x2[3]) + np.log(x2[3]) + stats.norm(40, 5).logpdf(45.0)) - (
+        stats.lognorm(0.7, scale=1e-4).logpdf(x[3]) + np.log(x[3]) + stats.norm(40, 5).logpdf(x[0])
+    )
+    assert float(term(jnp.asarray(x2)) - term(jnp.asarray(x))) == pytest.approx(want, rel=1e-12)
+    params = dcjax.DC().parameters("table4")
+    params["J"].set(prior="lognormal(1e-4, 0.7)")
+    again = dcjax.Parameters.from_dict(params.to_dict())
+    assert again["J"].prior == LogNormalPrior(1e-4, 0.7) and again["Ra"].prior is None and "prior" not in params.to_dict()["Ra"]
+    for bad, says in (
+        ("gamma(1,2)", "J: prior must be normal(MEAN,SD)"),
+        ("normal(1)", "normal takes 2"),
+        ("halfnormal(-1)", "sd must be"),
+    ):
+        with pytest.raises(ValueError, match=re.escape(says)):
+            params["J"].set(prior=bad)
+    with pytest.raises(ValueError, match="Tlz is not a sampled parameter"):
+        prior_term(space, {"Tlz": "halfnormal(1)"})
+
+
 @pytest.fixture(scope="module")
 def noisy_sd1():
     sd1, truth = datasets.load("SD1"), datasets.true_params("SD1")
@@ -101,12 +146,20 @@ def test_cli_sample_of_an_l1_fit_uses_the_laplace_likelihood(noisy_sd1, tmp_path
         "fit", str(path), "--bounds", "table4", "--loss", "l1", "--runs", "1", "--budget", "20000", "--fix", "Tlb=3.27e-5,Tlc=8.55e-8",
         "--out", str(out),
     ]) == 0  # fmt: skip
-    assert main(["sample", str(out / "result.json"), "--draws", "300", "--warmup", "300", "--chains", "2", "--out", str(out)]) == 0
+    cm = dcjax.load_result(out / "result.json").best_values["cm"]
+    prior = dcjax.NormalPrior(cm * (1 + 3e-6), 1e-6 * cm)  # far tighter than the data: the posterior is the prior
+    assert main(["sample", str(out / "result.json"), "--draws", "300", "--warmup", "300", "--chains", "2", "--out", str(out),
+                 "--prior", f"cm={prior.spec}"]) == 0  # fmt: skip
     text = capsys.readouterr().out
-    assert "likelihood: Laplace" in text and "90 % linearised" in text
+    assert "likelihood: Laplace" in text and "90 % linearised" in text and f"except cm {prior.spec}" in text
     assert (out / "posterior.npz").exists() and (out / "corner.png").exists()
     d = np.load(out / "posterior.npz")
     assert tuple(d["names"]) == ("Ra", "La", "cm", "J", "Tla", "y0_i_a", "y0_omega")  # noisy channels: their starts are fitted
+    draws = d["draws"][..., 2].ravel()  # 3 prior sd from the optimum: without the prior the draws would sit at the optimum
+    assert abs(draws.mean() - prior.mean) < 0.3 * prior.sd and draws.std() == pytest.approx(prior.sd, rel=0.25)
+    assert main(["report", str(out / "result.json")]) == 0  # the posterior.npz beside result.json is reported
+    text = capsys.readouterr().out
+    assert "[[Posterior]]" in text and "90 % posterior" in text and f"except cm {prior.spec}" in text
 
 
 @pytest.mark.slow
@@ -122,3 +175,31 @@ def test_ninety_percent_intervals_cover_the_truth_over_noise_seeds(case, seeds, 
     for kind in ("linearised", "posterior"):
         hits = [v for d in rows for v in d[kind].values()]
         assert 0.80 <= np.mean(hits) <= 0.97, (kind, np.mean(hits), rows)
+
+
+@pytest.mark.slow
+def test_chains_split_over_two_devices():
+    """With 2 XLA CPU devices the 4 chains run 2 a device (`chain_mesh`): the same seed gives the
+    same bits again, and the draws of the 4 side by side on one device to rounding (a batch of 2
+    compiles to other last bits than one of 4: 1e-7 relative after 40 draws here)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import json, numpy as np, dcjax; from dcjax import datasets; from dcjax.analysis import posterior as P;"
+        "s = datasets.load('SD1'); n = 200; y = np.column_stack([s['i_a'][:n], s['omega'][:n]]);"
+        "y = y + 0.01 * np.abs(y).max(axis=0) * np.random.default_rng(0).standard_normal(y.shape);"
+        "rec = dcjax.Recording(t=s.t[:n], u_a=s['u_a'][:n], i_a=y[:, 0], omega=y[:, 1], name='SD1-200');"
+        "obs = dcjax.Observation(initial={'i_a': 'measured', 'omega': 'measured'});"
+        "r = dcjax.fit(rec, params='table4', runs=1, budget=1400, polish=True, observation=obs);"
+        "a, again = (r.sample(draws=40, chains=4, warmup=40, seed=3) for _ in range(2)); m = P.chain_mesh(4); P.chain_mesh = lambda c: None;"
+        "b = r.sample(draws=40, chains=4, warmup=40, seed=3); d = np.abs(a.draws - b.draws) / np.abs(b.draws).max(axis=(0, 1));"
+        "print(json.dumps({'devices': m.devices.size, 'again': bool(np.array_equal(a.draws, again.draws)), 'off': float(d.max())}))"
+    )
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr[-3000:]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert out["devices"] == 2 and out["again"] and out["off"] < 1e-4, out

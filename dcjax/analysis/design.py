@@ -32,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compiling import filter_jit
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from ..simulation.integrators import RK4
@@ -313,8 +314,8 @@ def _on_grid(u, n: int, what: str, d: int | None = None) -> np.ndarray:
     return u if d is None else u.reshape(n, -1)
 
 
-_information = eqx.filter_jit(information)
-_simulate = eqx.filter_jit(simulate)  # the eager calls: one compiled program per shape, not a new scan each call
+_information = filter_jit(information)
+_simulate = filter_jit(simulate)  # the eager calls: one compiled program per shape, not a new scan each call
 
 
 class _Criterion(eqx.Module):
@@ -376,13 +377,13 @@ def _against_baselines(loss: _Criterion, u: np.ndarray, baselines: list[np.ndarr
     return rows[k], float(excess[k])
 
 
-@eqx.filter_jit
+@filter_jit
 def _log_variances(loss: _Criterion, inputs: jax.Array) -> jax.Array:
     """`_Criterion.log_variances` of each of the inputs (R, N, D) (vmapped)."""
     return jax.vmap(loss.log_variances)(inputs)
 
 
-@eqx.filter_jit
+@filter_jit
 def _optimize(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple[jax.Array, jax.Array]:
     """Projected Adam from each row of `z0` (vmapped): the best levels by the exact criterion met
     on the way, and that value."""

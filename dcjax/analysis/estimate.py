@@ -26,11 +26,11 @@ automatic search ranges (`auto_range`)."""
 import math
 import warnings
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compiling import filter_jit
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from ..models.parameters import Parameter, Parameters
@@ -66,7 +66,7 @@ def _output_errors(recording: Recording, model: Model, xs: list[np.ndarray]) -> 
     return np.where(ok & np.isfinite(f), f, np.inf)
 
 
-_objective_jit = eqx.filter_jit(objective)  # one compilation per recording shape, not one per cutoff
+_objective_jit = filter_jit(objective)  # one compilation per recording shape, not one per cutoff
 
 
 def _filtered(x: np.ndarray, fs: float, cutoff: float, order: int) -> np.ndarray:
@@ -214,7 +214,7 @@ def _derivative_residual(model: Model, phi, data):
     return jnp.concatenate([s * (d - fi) for s, d, fi in zip(scale, DY, f)])
 
 
-@eqx.filter_jit
+@filter_jit
 def _lm_solve(model: Model, phi0, data):
     """Vmapped LM from every start (one compilation per model and data shape); (solutions, costs)."""
     import optimistix as optx

@@ -17,11 +17,11 @@ g_e(0) = g_e(theta') - A theta' taken at a parameter point theta' (theta = 0 may
 discrete-time model's rate is (update(c, u, y, dt) - y) / dt. An equation with no parameter
 (dq/dt = v) is left out; a model with an equation in no such form has none (None)."""
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..compiling import filter_jit
 from ..models import DiscreteModel, Model
 from ..models.parameters import Parameters
 
@@ -43,14 +43,14 @@ def _scaled(model: Model, x, Y, U, dt):
     return jnp.concatenate([jnp.ones((1,)), x])[:, None, None] * f[None]
 
 
-@eqx.filter_jit
+@filter_jit
 def _jacobians(model: Model, points, Y, U, dt):
     """_scaled and d(_scaled)/dx at each parameter point: (points, P + 1, S, rows) and
     (points, P + 1, S, rows, P)."""
     return jax.vmap(lambda x: (_scaled(model, x, Y, U, dt), jax.jacfwd(_scaled, argnums=1)(model, x, Y, U, dt)))(points)
 
 
-@eqx.filter_jit
+@filter_jit
 def _columns(model: Model, x, Y, U, dt):
     """(g, A) at every row: g = _scaled(x) (P + 1, S, rows) and its Jacobian (P + 1, S, rows, P)."""
     return _scaled(model, x, Y, U, dt), jax.jacfwd(_scaled, argnums=1)(model, x, Y, U, dt)

@@ -3,7 +3,8 @@
 The posterior is p(x | data) ∝ L(x) p(x): L the fit's likelihood under its loss's noise model
 (`dcjax.simulation.likelihood`: Gaussian for SSE, Laplace for L1, Huber for Huber; each channel's
 scale from the residuals at the optimum, held), p(x) the prior of the search space: uniform in
-each free entry's range, log-uniform where it is searched on a log scale (`Parameter(scale="log")`).
+each free entry's range, log-uniform where it is searched on a log scale (`Parameter(scale="log")`),
+or a parameter's own `Parameter(prior=...)` within the same range (`dcjax.models.priors`).
 Initial states, offsets and delays that the fit fitted are sampled with the model's parameters.
 
 NUTS runs on theta in R^F with z = tri(theta), the triangle wave of period 2 (z = theta on [0, 1],
@@ -21,6 +22,7 @@ its kernels vmap over chains."""
 
 import dataclasses
 import time
+from collections.abc import Mapping
 
 import blackjax
 import blackjax.diagnostics as diag
@@ -29,7 +31,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from blackjax.adaptation.base import get_filter_adapt_info_fn
+from jax.sharding import Mesh, PartitionSpec
 
+from ..compiling import filter_jit
+from ..models.priors import Prior, prior_from_spec
 from ..models.space import Space
 from ..simulation.joint import JointProblem
 from ..simulation.likelihood import NoiseModel, channel_sums, fit_noise, whitened_residuals
@@ -57,6 +62,7 @@ class Posterior:
     noise: dict[str, float]  # "recording:channel" -> the noise scale in the channel's units
     wall: dict[str, float]  # seconds: "warmup" (with its compilation), "sampling"
     seed: int
+    priors: dict[str, str] = dataclasses.field(default_factory=dict)  # name -> prior spec where not uniform in the range
 
     def interval(self, name: str, prob: float = 0.9) -> tuple[float, float]:
         """The central `prob` interval of `name`'s draws (all chains)."""
@@ -97,6 +103,8 @@ class Posterior:
                      f"({self.ess_per_second:.1f} bulk ESS/s, the least over the parameters)")  # fmt: skip
         noise = ", ".join(f"{k} {v:.3g}" for k, v in self.noise.items())
         lines.append(f"likelihood: {self.likelihood}, noise scale per channel (from the residuals at the optimum): {noise}")
+        own = "".join(f", {n} {p}" for n, p in self.priors.items())
+        lines.append(f"prior: uniform in each search range (log-uniform on a log scale){own and ', except' + own[1:]}")
         return "\n".join(lines)
 
     def save(self, path) -> None:
@@ -104,7 +112,35 @@ class Posterior:
         np.savez(path, draws=self.draws, names=np.array(self.names), rhat=np.array([self.rhat[n] for n in self.names]),
                  ess_bulk=np.array([self.ess_bulk[n] for n in self.names]), ess_tail=np.array([self.ess_tail[n] for n in self.names]),
                  optimum=np.array([self.optimum[n] for n in self.names]), divergences=self.divergences, seed=self.seed,
-                 likelihood=self.likelihood, noise_names=np.array(list(self.noise)), noise=np.array(list(self.noise.values())))  # fmt: skip
+                 steps=self.steps, acceptance=self.acceptance, wall=np.array([self.wall["warmup"], self.wall["sampling"]]),
+                 likelihood=self.likelihood, noise_names=np.array(list(self.noise)), noise=np.array(list(self.noise.values())),
+                 prior_names=np.array(list(self.priors), dtype=str), priors=np.array(list(self.priors.values()), dtype=str))  # fmt: skip
+
+    @classmethod
+    def load(cls, path) -> "Posterior":
+        """A `Posterior` saved by `save` (posterior.npz of `dcjax sample`)."""
+        try:
+            d = np.load(path, allow_pickle=False)
+            names = tuple(str(n) for n in d["names"])
+            draws = np.asarray(d["draws"], float)
+        except (OSError, ValueError, KeyError) as e:
+            raise ValueError(f"{path}: not a posterior.npz of dcjax sample ({e})") from None
+        if draws.ndim != 3 or draws.shape[-1] != len(names):
+            raise ValueError(f"{path}: draws of shape {draws.shape} do not match its {len(names)} names")
+
+        def named(key):
+            return dict(zip(names, map(float, d[key])))
+
+        def scalar(key, default=np.nan):
+            return d[key].item() if key in d else default
+
+        wall = d["wall"] if "wall" in d else (np.nan, np.nan)
+        return cls(names=names, draws=draws, optimum=named("optimum"), rhat=named("rhat"), ess_bulk=named("ess_bulk"),
+                   ess_tail=named("ess_tail"), divergences=int(scalar("divergences")), steps=float(scalar("steps")),
+                   acceptance=float(scalar("acceptance")), likelihood=str(scalar("likelihood")),
+                   noise=dict(zip(map(str, d["noise_names"]), map(float, d["noise"]))),
+                   wall={"warmup": float(wall[0]), "sampling": float(wall[1])}, seed=int(scalar("seed")),
+                   priors=dict(zip(map(str, d["prior_names"]), map(str, d["priors"]))) if "priors" in d else {})  # fmt: skip
 
 
 class Whitening(eqx.Module):
@@ -122,49 +158,101 @@ class Whitening(eqx.Module):
         return jnp.concatenate([self.chol, -self.chol]), jnp.concatenate([self.center, 1.0 - self.center])
 
 
+class PriorTerm(eqx.Module):
+    """sum_k log p_k(x_k) over the parameters with their own prior, + log x_k for a log-scale one
+    (its density against the log-uniform base measure, dx/dz = x ln(max/min)); 0 for none."""
+
+    priors: tuple[Prior, ...]
+    index: tuple[int, ...] = eqx.field(static=True)  # positions in the full search vector
+    log: tuple[bool, ...] = eqx.field(static=True)
+
+    def __call__(self, x):
+        total = jnp.zeros((), x.dtype)
+        for p, k, lg in zip(self.priors, self.index, self.log):
+            total = total + p.log_density(x[k]) + (jnp.log(x[k]) if lg else 0.0)
+        return total
+
+
+def prior_term(space: Space, priors: "Mapping[str, Prior | str] | None") -> PriorTerm:
+    """The `PriorTerm` of `priors` (name -> `Prior` or spec) over `space`'s free entries."""
+    priors = dict(priors or {})
+    bad = [n for n in priors if n not in space.free_names]
+    if bad:
+        raise ValueError(f"prior: {', '.join(bad)} is not a sampled parameter; the sampled ones are {', '.join(space.free_names)}")
+    index = tuple(space.names.index(n) for n in priors)
+    parsed = tuple(jax.tree.map(jnp.asarray, prior_from_spec(p)) for p in priors.values())  # arrays: a new value, no recompile
+    return PriorTerm(parsed, index, tuple(k in space.log for k in index))
+
+
 def _physical(space: Space, white: Whitening, theta):
     return space.to_physical(jnp.clip(white.z(theta), 0.0, 1.0))
 
 
-def log_posterior(theta, target: JointProblem, noise: NoiseModel, space: Space, white: Whitening):
-    """log L(x(z(theta))) (the prior is uniform in z, the Jacobian constant); -inf outside the
-    box or where not finite."""
+def log_posterior(theta, target: JointProblem, noise: NoiseModel, space: Space, white: Whitening, prior: PriorTerm | None = None):
+    """log L(x(z(theta))) + the parameters' own priors (the base prior is uniform in z, the
+    Jacobian constant); -inf outside the box or where not finite."""
     z = white.z(theta)
-    lp = noise.log_likelihood(channel_sums(space.to_physical(jnp.clip(z, 0.0, 1.0)), target))
+    x = space.to_physical(jnp.clip(z, 0.0, 1.0))
+    lp = noise.log_likelihood(channel_sums(x, target)) + (0.0 if prior is None else prior(x))
     inside = jnp.all((z >= -WALL_TOL) & (z <= 1.0 + WALL_TOL))  # the reflecting step never leaves (to rounding)
     return jnp.where(jnp.isfinite(lp) & inside, lp, -jnp.inf)
 
 
-@eqx.filter_jit
-def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space):
-    """The Laplace covariance in z: (J^T J + 12 I)^-1, J of the whitened residuals (the prior's
-    variance 1/12 bounds a direction the data leave free)."""
+@filter_jit
+def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space, prior: PriorTerm):
+    """The Laplace covariance in z: (J^T J + 12 I + P)^-1, J of the whitened residuals (the
+    uniform prior's variance 1/12 bounds a direction the data leave free), P the own priors'
+    curvature (diagonal, its positive part)."""
     jac = jax.jacfwd(lambda z: whitened_residuals(space.to_physical(z), target, noise))(z0)
-    info = jac.T @ jac + 12.0 * jnp.eye(z0.shape[0])
+    curv = -jnp.diag(jax.hessian(lambda z: prior(space.to_physical(z)))(z0))
+    info = jac.T @ jac + 12.0 * jnp.eye(z0.shape[0]) + jnp.diag(jnp.maximum(jnp.where(jnp.isfinite(curv), curv, 0.0), 0.0))
     return jnp.linalg.inv(info)
 
 
-@eqx.filter_jit
-def _warmup(keys, starts, target: JointProblem, noise: NoiseModel, space: Space, white: Whitening, steps: int):
-    def logdensity(e):
-        return log_posterior(e, target, noise, space, white)
+def _over_chains(fn, mesh, chained: int, *args):
+    """`jax.vmap(fn)` over the leading (chains) axis of the first `chained` arguments, the rest
+    shared; on a mesh each device runs its share of the chains (`shard_map`; the same bits: each
+    chain's arithmetic does not depend on how many run beside it)."""
+    batched = jax.vmap(fn, in_axes=(0,) * chained + (None,) * (len(args) - chained))
+    if mesh is None:
+        return batched(*args)
+    dynamic, static = eqx.partition(args, eqx.is_array)
+    split, whole = PartitionSpec("chains"), PartitionSpec()
+    specs = (split,) * chained + (whole,) * (len(args) - chained)
+    local = jax.shard_map(lambda *d: batched(*eqx.combine(d, static)), mesh=mesh, in_specs=specs, out_specs=split, check_vma=False)
+    return local(*dynamic)
 
-    adapt = blackjax.window_adaptation(blackjax.nuts, logdensity, is_mass_matrix_diagonal=False, integrator=reflecting_verlet(*white.walls()),
-                                       adaptation_info_fn=get_filter_adapt_info_fn())  # fmt: skip
 
-    def one(key, start):
+def chain_mesh(chains: int) -> Mesh | None:
+    """The devices the chains are split over: the most devices that divide `chains` evenly
+    (`dcjax.use_host_devices()` makes one per core); None for one."""
+    devices = jax.devices()
+    n = max(d for d in range(1, len(devices) + 1) if chains % d == 0)
+    return Mesh(np.array(devices[:n]), ("chains",)) if n > 1 else None
+
+
+@filter_jit
+def _warmup(keys, starts, target: JointProblem, noise: NoiseModel, space: Space, white: Whitening, prior: PriorTerm, steps: int, mesh):
+    def one(key, start, target, noise, space, white, prior):
+        def logdensity(e):
+            return log_posterior(e, target, noise, space, white, prior)
+
+        adapt = blackjax.window_adaptation(blackjax.nuts, logdensity, is_mass_matrix_diagonal=False,
+                                           integrator=reflecting_verlet(*white.walls()), adaptation_info_fn=get_filter_adapt_info_fn())  # fmt: skip
         (state, params), _ = adapt.run(key, start, num_steps=steps)  # pyright: ignore[reportCallIssue]
         return state, params
 
-    return jax.vmap(one)(keys, starts)
+    return _over_chains(one, mesh, 2, keys, starts, target, noise, space, white, prior)
 
 
-@eqx.filter_jit
-def _draw(keys, states, params, target: JointProblem, noise: NoiseModel, space: Space, white: Whitening, draws: int):
-    def logdensity(e):
-        return log_posterior(e, target, noise, space, white)
+@filter_jit
+def _draw(
+    keys, states, params, target: JointProblem, noise: NoiseModel, space: Space, white: Whitening, prior: PriorTerm, draws: int, mesh
+):
+    def chain(key, state, p, target, noise, space, white, prior):
+        def logdensity(e):
+            return log_posterior(e, target, noise, space, white, prior)
 
-    def chain(key, state, p):
         kernel = blackjax.nuts(logdensity, **p, integrator=reflecting_verlet(*white.walls()))
 
         def step(s, k):
@@ -173,14 +261,17 @@ def _draw(keys, states, params, target: JointProblem, noise: NoiseModel, space: 
 
         return jax.lax.scan(step, state, jax.random.split(key, draws))[1]
 
-    return jax.vmap(chain)(keys, states, params)
+    return _over_chains(chain, mesh, 3, keys, states, params, target, noise, space, white, prior)
 
 
 def sample(
-    x, target: JointProblem, space: Space, loss: Loss, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0
-) -> Posterior:
+    x, target: JointProblem, space: Space, loss: Loss, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0,
+    priors: "Mapping[str, Prior | str] | None" = None,
+) -> Posterior:  # fmt: skip
     """NUTS draws of the free entries of search vector `x` (the fit's optimum) under `loss`'s
-    likelihood and `space`'s prior; `seed` fixes every bit."""
+    likelihood and `space`'s prior (`priors`: name -> `Prior` or spec, replacing the uniform one
+    within the range); `seed` fixes every bit. The chains run side by side (vmapped), split over
+    the devices where there are several (`chain_mesh`)."""
     for name, v, least in (("draws", draws, 1), ("chains", chains, 1), ("warmup", warmup, 0)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < least:
             raise ValueError(f"{name} must be an integer >= {least}, got {v!r}")
@@ -189,17 +280,22 @@ def sample(
     if space.dim == 0:
         raise ValueError("every parameter is fixed: nothing to sample")
     x = jnp.asarray(x, dtype=jnp.float64)
+    prior = prior_term(space, priors)
+    for p, k in zip(prior.priors, prior.index):
+        if not np.isfinite(float(p.log_density(x[k]))):
+            raise ValueError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
     noise = fit_noise(x, target, loss)
     z0 = jnp.clip(space.to_unit(x), 0.0, 1.0)
-    cov = _laplace(z0, target, noise, space)
+    cov = _laplace(z0, target, noise, space, prior)
     k_init, k_warm, k_draw = jax.random.split(jax.random.key(int(seed)), 3)
     white = Whitening(z0, jnp.linalg.cholesky(cov))
     starts = _inside(white, jax.random.normal(k_init, (chains, z0.shape[0]), dtype=jnp.float64))
     t0 = time.perf_counter()
-    states, params = _warmup(jax.random.split(k_warm, chains), starts, target, noise, space, white, int(warmup))
+    mesh = chain_mesh(chains)
+    states, params = _warmup(jax.random.split(k_warm, chains), starts, target, noise, space, white, prior, int(warmup), mesh)
     jax.block_until_ready(states)
     t1 = time.perf_counter()
-    pos, div, steps, acc = _draw(jax.random.split(k_draw, chains), states, params, target, noise, space, white, int(draws))
+    pos, div, steps, acc = _draw(jax.random.split(k_draw, chains), states, params, target, noise, space, white, prior, int(draws), mesh)
     free, rhat, ess_bulk, ess_tail = map(np.asarray, _diagnostics(pos, space, white))
     t2 = time.perf_counter()
     names = space.free_names
@@ -217,10 +313,11 @@ def sample(
         noise=_noise_names(target, noise),
         wall={"warmup": t1 - t0, "sampling": t2 - t1},
         seed=int(seed),
+        priors={n: prior_from_spec(p).spec for n, p in (priors or {}).items()},
     )
 
 
-@eqx.filter_jit
+@filter_jit
 def _diagnostics(pos, space: Space, white: Whitening):
     """The draws' free entries in physical units, (chains, draws, F), their split R-hat (NaN for one
     chain), bulk and tail ESS: one compiled program (blackjax's diagnostics run eagerly compile
@@ -253,4 +350,4 @@ def _noise_names(target: JointProblem, noise: NoiseModel) -> dict[str, float]:
     return out
 
 
-__all__ = ["Posterior", "log_posterior", "sample"]
+__all__ = ["Posterior", "PriorTerm", "log_posterior", "prior_term", "sample"]

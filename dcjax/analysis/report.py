@@ -18,10 +18,11 @@ def channel_fit(result, recording) -> dict[str, float]:
     return {c: fit_percent(recording[c], sim[:, m.states.index(c)]) for c in m.outputs}
 
 
-def fit_report(result, correl_threshold: float = 0.9) -> str:
+def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
     """Model, settings, OF statistics, fit % per channel, every parameter with its standard
-    error (where `result.uncertainty()` was computed), fixed and at-bound flags, and the strongly
-    correlated pairs."""
+    error (where `result.uncertainty()` was computed), fixed and at-bound flags, the strongly
+    correlated pairs and, given a `Posterior` of the result, its 90 % intervals beside the
+    linearised ones."""
     s = result.settings
     m = result.model
     st = result.stats
@@ -100,6 +101,15 @@ def fit_report(result, correl_threshold: float = 0.9) -> str:
         pairs = u.strong_correlations(correl_threshold)
         lines.append(f"[[Correlations]] (unreported correlations are < {correl_threshold:.3f})")
         lines += [f"    C({a}, {b}) = {c:+.4f}" for a, b, c in pairs] or ["    none"]
+    if posterior is not None:
+        z90 = 1.6448536269514722
+        lin = (
+            None
+            if u is None
+            else {n: (result.best_values[n] - z90 * u.se[n], result.best_values[n] + z90 * u.se[n]) for n in posterior.names}
+        )
+        lines.append("[[Posterior]]" + ("" if u is not None else " (linearised intervals: add --uncertainty)"))
+        lines += [f"    {line}" for line in posterior.table(lin).splitlines()]
     derived = m.derived(result.values(0) if hasattr(result, "values") else result.best_values)  # a local one: the first recording's
     if derived:
         lines.append("[[Derived]] (" + f"{m.name}.derived)")

@@ -12,12 +12,12 @@ one held fixed (Levenberg–Marquardt) over a grid."""
 
 import dataclasses
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from ..compiling import filter_jit
 from ..models.bounds import Bounds
 from ..models.space import Space, make_space
 from ..simulation.joint import JointProblem, joint_problem
@@ -105,7 +105,7 @@ def residual_jacobian(
     return np.asarray(r), np.asarray(jac)
 
 
-@eqx.filter_jit
+@filter_jit
 def _residuals_and_jacobian(x: jax.Array, free: jax.Array, target: JointProblem):
     """One compiled residual and forward-mode Jacobian per problem structure (reused across calls)."""
 

@@ -48,6 +48,19 @@ def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]
     return out
 
 
+def _named_priors(items: list[str] | None) -> dict[str, str]:
+    """`--prior NAME=SPEC` (repeatable; `;` also separates): name -> prior spec, checked."""
+    from ..models.priors import prior_from_spec
+
+    out = {}
+    for item in [part for text in items or [] for part in text.split(";") if part.strip()]:
+        name, sep, spec = item.partition("=")
+        if not sep or not name.strip():
+            raise ValueError(f"--prior must be NAME=SPEC, e.g. J=lognormal(1e-4,0.5), got {item!r}")
+        out[name.strip()] = prior_from_spec(spec).spec
+    return out
+
+
 def _add_data_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("reading the data")
     g.add_argument(
@@ -240,7 +253,12 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument("--warmup", type=int, default=1000, help="warmup steps per chain: step size and dense mass matrix (default 1000)")
     m.add_argument("--seed", type=int, default=0, help="random seed (same seed, same draws)")
     m.add_argument("--out", default="out", help="output folder for posterior.npz and corner.png")
+    m.add_argument("--prior", action="append", default=None, metavar="NAME=SPEC",
+                   help="a parameter's own prior within its range instead of the uniform one: normal(MEAN,SD), lognormal(MEDIAN,SIGMA) "
+                        "or halfnormal(SD), e.g. for the DC motor --prior 'J=lognormal(1e-4,0.5)' (repeatable)")  # fmt: skip
     r = sub.add_parser("report", help="print the fit report of a saved result")
     r.add_argument("result", help="result.json of a fit")
     r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
+    r.add_argument("--posterior", default=None,
+                   help="posterior.npz of `dcjax sample` to report beside (default: the one beside RESULT.json, if any)")  # fmt: skip
     return p

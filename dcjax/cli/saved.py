@@ -106,9 +106,10 @@ def sample_cmd(args) -> int:
     """Posterior draws of a saved result: the table (posterior beside the linearised 90 %
     intervals), posterior.npz and corner.png in --out."""
     from ..analysis.plotting import corner
+    from .args import _named_priors
 
     res = _result(args.result)
-    post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed)
+    post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed, priors=_named_priors(args.prior))
     u = res.uncertainty().uncertainties
     assert u is not None
     z90 = 1.6448536269514722
@@ -129,8 +130,16 @@ def sample_cmd(args) -> int:
 
 
 def report_cmd(args) -> int:
+    from ..analysis.posterior import Posterior
+
     res = _result(args.result)
     if args.uncertainty:
         res = res.uncertainty()
-    print(res.report())
+    path = Path(args.posterior) if args.posterior else Path(args.result).parent / "posterior.npz"
+    if args.posterior and not path.is_file():
+        raise ValueError(f"--posterior: no such file: {path}")
+    post = Posterior.load(path) if path.is_file() else None
+    if post is not None and not set(post.names) <= set(res.names):
+        raise ValueError(f"--posterior: {path} holds draws of {', '.join(post.names)}, not of this result's parameters")
+    print(res.report(posterior=post))
     return 0

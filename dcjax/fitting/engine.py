@@ -147,9 +147,11 @@ def settings_of(setup: Setup, search: Search) -> dict:
         **setup.observation.to_dict(), "names": list(space.names), "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),
     }  # fmt: skip
     log = {"log": [space.names[k] for k in space.log]} if space.log else {}  # searched on log(x)
+    priors = {n: p.prior.spec for n, p in setup.params.items() if p.prior is not None and p.vary}
     return (
         observed
         | log
+        | ({"priors": priors} if priors else {})  # for the sampler (the search does not use them)
         | {
             "recording": recs[0].name if len(recs) == 1 else [r.name for r in recs],
             "data": [_source(r) for r in recs],

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..analysis.checks import Finding
+from ..compiling import filter_jit
 from ..io.recording import Recording
 from ..models import Model, get_model, model_spec
 from ..models.bounds import Bounds
@@ -27,7 +28,7 @@ from .observation import Observation
 from .vector import base_name, layout_of, rows_of, transferred, unit_of
 
 
-@eqx.filter_jit
+@filter_jit
 def _simulate(x, target: JointProblem, r: int):
     """Recording r's states, one compile per problem structure and length, not one per call."""
     return target.simulate(x, r)
@@ -205,15 +206,18 @@ class FitResult:
             u.profile = (grid, profile_fn(x, profile, grid, target, space))
         return dataclasses.replace(self, _uncertainty=u)
 
-    def sample(self, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0) -> "Posterior":
+    def sample(self, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0, priors=None) -> "Posterior":
         """NUTS draws of the fitted search vector under the loss's likelihood (Gaussian for sse,
         Laplace for l1, Huber for huber; each channel's noise scale from the residuals) and the
-        search space's prior (uniform in each range, log-uniform on a log scale):
+        search space's prior (uniform in each range, log-uniform on a log scale; a parameter's own
+        `Parameter(prior=...)` of the fit, or `priors`: name -> `Prior` or spec, which replace it):
         `dcjax.analysis.posterior.sample`. Needs the fitted recordings."""
         from ..analysis.posterior import sample
 
         x = np.array([self.best_values[n] for n in self.names])
-        return sample(x, self.target(), self.space, self.observation.loss, draws=draws, chains=chains, warmup=warmup, seed=seed)
+        own = {n: p.prior for n, p in self.params.items() if p.prior is not None} | dict(priors or {})
+        return sample(x, self.target(), self.space, self.observation.loss, draws=draws, chains=chains, warmup=warmup, seed=seed,
+                      priors=own)  # fmt: skip
 
     @property
     def uncertainties(self) -> "Uncertainty | None":
@@ -310,6 +314,7 @@ class FitResult:
         assert b is not None
         u = self._uncertainty
         prec = dict(zip(self.names, self.settings["precision"])) if self.settings.get("precision") else self.model.memory_precision or {}
+        priors = self.settings.get("priors") or {}
         out = []
         for k, n in enumerate(self.names):
             se = None
@@ -319,7 +324,7 @@ class FitResult:
             out.append(
                 Parameter(n, value=self.best_values[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
                           unit=unit_of(n, self.model), precision=prec.get(n), stderr=se, local=base_name(n) in (self.settings.get("local") or ()),
-                          scale="log" if n in (self.settings.get("log") or ()) else "linear")
+                          scale="log" if n in (self.settings.get("log") or ()) else "linear", prior=priors.get(n))
             )  # fmt: skip
         return Parameters(out)
 
@@ -409,10 +414,12 @@ class FitResult:
 
         return plot_result(self, path=path, **kw)
 
-    def report(self) -> str:
+    def report(self, posterior=None) -> str:
+        """lmfit's `fit_report`; with `posterior` (a `Posterior` of this result, e.g.
+        `Posterior.load("out/posterior.npz")`) its intervals beside the linearised ones."""
         from ..analysis.report import fit_report
 
-        return fit_report(self)
+        return fit_report(self, posterior=posterior)
 
     def __str__(self) -> str:
         return self.report()

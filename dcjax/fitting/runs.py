@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec
 
+from ..compiling import QUICK
 from ..models.space import Space
 from ..simulation.joint import JointProblem, StackedJoint, length_buckets, paddable, padded, stack_structure, stacked_target
 from ..simulation.kernel import kernel_mode
@@ -203,11 +204,13 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
 # --lengths 400 1600`).
 COMPILE_FES = 1e9
 
-# XLA:CPU compiles at LLVM optimisation level 3 by default. At level 2 a search program compiles
-# in about half the time (SD1: DE 1.7 -> 0.8 s, ABC 3.9 -> 1.7 s) to the same bits for the
-# paper's methods and memory (CMA-ES's linear algebra differs in the last bits), and its runs take
-# up to 14 % longer: `python -m experiments.bench_compile_level`.
-QUICK_COMPILE = {"xla_backend_optimization_level": 2}
+# XLA:CPU compiles at LLVM optimisation level 3 by default, with its fusion emitters. At level 2
+# and without them (`dcjax.compiling.QUICK`) a search program compiles in about 0.45 of the time
+# (SD1: DE 1.60 -> 0.74 s, ABC 4.16 -> 1.29 s) to the same bits for the paper's methods and
+# memory (CMA-ES's linear algebra differs in the last bits), and its runs take up to 14 % longer
+# (memory-assisted ones up to 20 %): `python -m experiments.bench_compile_level`. A long search
+# keeps XLA's defaults (without the fusion emitters TLBO's long runs differ in the last bits).
+QUICK_COMPILE = QUICK
 
 
 def sample_steps(setup: Setup) -> int:

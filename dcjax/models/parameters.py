@@ -19,6 +19,8 @@ from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 
+from .priors import Prior, prior_from_spec
+
 _UNSET = object()
 
 
@@ -27,9 +29,10 @@ class Parameter:
     """One parameter: `value` (None: not known; a varying parameter's value seeds the search),
     range `[min, max]`, `vary` (False: fixed at `value`), `unit`, `precision`, `stderr`,
     `local` (a joint fit gives each recording its own value, searched with the shared ones),
-    `positive` (never below 0: automatic ranges and first estimates keep its sign) and `scale`
+    `positive` (never below 0: automatic ranges and first estimates keep its sign), `scale`
     ("linear", or "log": searched and polished on log(value), uniform in decades between `min` > 0
-    and `max`; implies `positive`)."""
+    and `max`; implies `positive`) and `prior` (a `dcjax.models.priors.Prior` or its spec string
+    for posterior sampling; None: uniform in the range, log-uniform on a log scale)."""
 
     name: str
     value: float | None = None
@@ -42,13 +45,14 @@ class Parameter:
     local: bool = False
     positive: bool = False
     scale: str = "linear"
+    prior: Prior | None = None
 
     def __post_init__(self):
-        self.set(positive=self.positive, scale=self.scale)
+        self.set(positive=self.positive, scale=self.scale, prior=self.prior)
 
     def set(
         self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET, local=_UNSET, positive=_UNSET,
-        scale=_UNSET,
+        scale=_UNSET, prior=_UNSET,
     ) -> "Parameter":  # fmt: skip
         """Change fields by keyword (lmfit's `Parameter.set`); returns the parameter."""
         for field, v in (("value", value), ("min", min), ("max", max), ("precision", precision), ("stderr", stderr)):
@@ -67,6 +71,11 @@ class Parameter:
                 raise ValueError(f"{self.name}.scale must be 'linear' or 'log', got {scale!r}")
             self.scale = scale
             self.positive = self.positive or scale == "log"
+        if prior is not _UNSET:
+            try:
+                self.prior = None if prior is None else prior_from_spec(prior)  # pyright: ignore[reportArgumentType]
+            except ValueError as e:
+                raise ValueError(f"{self.name}: {e}") from None
         if self.positive and self.min == -math.inf:
             self.min = 0.0  # a positive parameter's range starts at 0 unless given
         if self.positive and self.min < 0:
@@ -90,7 +99,8 @@ class Parameter:
         fixed = "" if self.vary else " (fixed)"
         local = " (local)" if self.local else ""
         flags = " (log)" if self.scale == "log" else " (positive)" if self.positive else ""
-        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}{local}{flags}>"
+        prior = "" if self.prior is None else f", prior={self.prior.spec}"
+        return f"<Parameter {self.name!r}, value={self.value!r}{se}, bounds=[{self.min:g}:{self.max:g}]{fixed}{local}{flags}{prior}>"
 
     def __eq__(self, other) -> bool:
         """Another `Parameter`: every field equal; a number: the value equal."""
@@ -256,10 +266,12 @@ class Parameters(Mapping[str, Parameter]):
         def clean(v):
             return None if isinstance(v, float) and not math.isfinite(v) else v
 
-        return {
-            n: {k: clean(v) for k, v in dataclasses.asdict(p).items() if k != "name" and not (k == "local" and not v)}
-            for n, p in self._items.items()
-        }
+        def fields(p: Parameter) -> dict:
+            d = {f.name: getattr(p, f.name) for f in dataclasses.fields(p) if f.name != "name"}
+            d["prior"] = None if p.prior is None else p.prior.spec
+            return {k: clean(v) for k, v in d.items() if not (k in ("local", "prior") and not v)}
+
+        return {n: fields(p) for n, p in self._items.items()}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Mapping]) -> "Parameters":

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..compiling import filter_jit
 from .joint import JointProblem
 from .losses import Loss
 from .objectives import simulate
@@ -59,7 +60,7 @@ def channel_sums(x: Float[Array, " D"], target: JointProblem) -> Float[Array, "R
     return jnp.stack(target.each(x, _channel_rho))
 
 
-_sums = eqx.filter_jit(channel_sums)
+_sums = filter_jit(channel_sums)
 
 
 def fit_noise(x, target: JointProblem, loss: Loss) -> NoiseModel:

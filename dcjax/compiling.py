@@ -1,0 +1,46 @@
+"""XLA compiler options per executable (never `XLA_FLAGS`, never global state), and `filter_jit`,
+equinox's `filter_jit` with them.
+
+XLA:CPU's fusion emitters (its newer code generator for fused loops) cost compile time that
+dcjax's programs do not win back: without them the searches, the Levenberg–Marquardt polish and
+the sampler compile in 0.6-0.8 of the time to the same bits, and run as fast (the memory-assisted
+searches up to 20 % slower; `python -m experiments.bench_compile_level`)."""
+
+import functools
+from collections.abc import Callable
+
+import equinox as eqx
+import jax
+
+LEAN = {"xla_cpu_use_fusion_emitters": False}  # every dcjax executable
+QUICK = LEAN | {"xla_backend_optimization_level": 2}  # a short search: LLVM level 2 (XLA:CPU's default is 3)
+
+
+def filter_jit(fn: Callable | None = None, *, options: dict | None = None) -> Callable:
+    """`eqx.filter_jit(fn)` compiled with XLA compiler `options` (default `LEAN`; `{}`: XLA's own): the array
+    leaves of the positional arguments are traced, everything else is static (hashed), as
+    equinox does."""
+    if fn is None:
+        return functools.partial(filter_jit, options=options)
+    opts = LEAN if options is None else options
+
+    @functools.partial(jax.jit, static_argnums=(1, 2), compiler_options=opts)
+    def compiled(dynamic, treedef, leaves):
+        args = eqx.combine(dynamic, jax.tree.unflatten(treedef, leaves))
+        return fn(*args)
+
+    def split(args):
+        dynamic, static = eqx.partition(args, eqx.is_array)
+        leaves, treedef = jax.tree.flatten(static)  # the static part as hashable pieces (lists become structure)
+        return dynamic, treedef, tuple(leaves)
+
+    @functools.wraps(fn)
+    def call(*args):
+        return compiled(*split(args))
+
+    call.lower = lambda *args: compiled.lower(*split(args))  # pyright: ignore[reportFunctionMemberAccess]
+    call.clear_cache = compiled.clear_cache  # pyright: ignore[reportFunctionMemberAccess]
+    return call
+
+
+__all__ = ["LEAN", "QUICK", "filter_jit"]

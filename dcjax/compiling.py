@@ -1,10 +1,12 @@
 """XLA compiler options per executable (never `XLA_FLAGS`, never global state), and `filter_jit`,
 equinox's `filter_jit` with them.
 
-XLA:CPU's fusion emitters (its newer code generator for fused loops) cost compile time that
-dcjax's programs do not win back: without them the searches, the Levenberg–Marquardt polish and
-the sampler compile in 0.6-0.8 of the time to the same bits, and run as fast (the memory-assisted
-searches up to 20 % slower; `python -m experiments.bench_compile_level`)."""
+XLA:CPU's fusion emitters (its newer code generator for fused loops) cost compile time that most
+of dcjax's programs do not win back: without them (`LEAN`) a short search compiles in 0.6-0.8 of
+the time to the same bits and runs as fast (`python -m experiments.bench_compile_level`), the
+sampler's programs in 0.75 (8.1 -> 6.2 s on SD1) and run within 8 %. Not everywhere: a batch of
+recordings (`fit_each`) searched 25 % slower without them, and the Levenberg–Marquardt polish's
+last bits change, so those keep them."""
 
 import functools
 from collections.abc import Callable
@@ -12,8 +14,8 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 
-LEAN = {"xla_cpu_use_fusion_emitters": False}  # every dcjax executable
-QUICK = LEAN | {"xla_backend_optimization_level": 2}  # a short search: LLVM level 2 (XLA:CPU's default is 3)
+LEAN = {"xla_cpu_use_fusion_emitters": False}
+QUICK = {"xla_backend_optimization_level": 2}  # a short search: LLVM level 2 (XLA:CPU's default is 3)
 
 
 def filter_jit(fn: Callable | None = None, *, options: dict | None = None) -> Callable:

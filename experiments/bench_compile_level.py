@@ -1,8 +1,8 @@
 """XLA:CPU's compiler options for the compiled runs: compile and search time at XLA's defaults
-(LLVM level 3, fusion emitters on), at level 2, and at level 2 without the fusion emitters
-(`dcjax.compiling.QUICK`, what `dcjax.fitting.runs.QUICK_COMPILE` is), and whether each gives the
-defaults' bits. The runs pick QUICK where a search is short against its compilation
-(`compiler_options`); this prints the figures behind that rule.
+(LLVM level 3, fusion emitters on), at level 2 (`dcjax.compiling.QUICK`), and at level 2 without
+the fusion emitters (`QUICK | LEAN`, what `dcjax.fitting.runs.QUICK_COMPILE` is), and whether each
+gives the defaults' bits. One setup's runs pick the last where a search is short against its
+compilation (`compiler_options`); this prints the figures behind that rule.
 
 Each case is fitted under each option set in one process set up as the CLI starts
 (`use_compiled_loops`, one device, no compilation cache): `compile` is the engine's own figure
@@ -22,7 +22,7 @@ import numpy as np
 
 import dcjax
 from dcjax import datasets
-from dcjax.compiling import QUICK
+from dcjax.compiling import LEAN, QUICK
 from dcjax.fitting import runs
 
 dcjax.use_compiled_loops()  # before any JAX computation, as the CLI (no compilation cache)
@@ -44,11 +44,11 @@ def cases() -> dict:
     }
 
 
-OPTIONS = {"default": {}, "level 2": {"xla_backend_optimization_level": 2}, "QUICK": QUICK}
+OPTIONS = {"default": {}, "level 2": QUICK, "level 2 lean": QUICK | LEAN}
 
 
 def measure(fit, options: dict, repeat: int) -> tuple[float, float, str]:
-    runs.compiler_options = lambda work: options
+    runs.compiler_options = lambda work, batched=False: options
     runs.EXECUTABLES.clear()
     first = fit()
     search = statistics.median([fit().timing["run_s"] for _ in range(repeat)])
@@ -62,9 +62,9 @@ def main():
     args = ap.parse_args()
     rule, picked = runs.compiler_options, []
 
-    def recorded(work):
-        picked.append("QUICK" if rule(work) else "default")
-        return rule(work)
+    def recorded(work, batched=False):
+        picked.append("quick" if rule(work, batched) else "default")
+        return rule(work, batched)
 
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, 1 XLA device; compile once per option set, search: "
           f"median of {args.repeat}; ratios and bits against XLA's defaults")  # fmt: skip

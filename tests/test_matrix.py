@@ -325,6 +325,22 @@ def test_length_buckets_minimise_compilations_plus_padded_search():
         assert cost(to) <= min(cost({n: n for n in spread}), cost({n: spread.max() for n in spread}))  # no worse than either extreme
 
 
+def test_bucket_tops_are_grid_lengths_the_same_for_similar_folders():
+    """`length_buckets(..., per_octave=8)`: every top is a grid length at most 9 % above its
+    members, so two folders of similar lengths (here each length 1-2 % off) get the same tops."""
+    from dcjax.simulation.joint import length_buckets, on_length_grid
+
+    grid = [on_length_grid(n) for n in range(1, 5000)]
+    assert all(g >= n for n, g in zip(range(1, 5000), grid)) and grid == sorted(grid)
+    assert max(g / n for n, g in zip(range(16, 5000), grid[15:])) <= 2 ** (1 / 8) + 1e-9 and len(set(grid)) < 110
+    a = np.unique(np.geomspace(400, 1600, 20).round().astype(int))
+    b = np.unique((a * np.linspace(1.01, 1.02, a.size)).round().astype(int))
+    for fes in (70, 2 * 140_000):
+        ta, tb = length_buckets(a, fes, 1e9, 8), length_buckets(b, fes, 1e9, 8)
+        assert set(ta.values()) <= set(grid) and all(n <= top for n, top in ta.items())
+        assert sorted(set(ta.values())) == sorted(set(tb.values())), (ta, tb)
+
+
 @pytest.mark.parametrize("model_key", ["dc", "discrete"])
 def test_a_result_simulates_on_a_power_of_two_grid_to_the_same_bits(model_key):
     """`FitResult.simulate` pads the problem to `grid_length` (a folder's summary compiles a few

@@ -25,9 +25,9 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec
 
-from ..compiling import QUICK
+from ..compiling import LEAN, QUICK
 from ..models.space import Space
-from ..simulation.joint import JointProblem, StackedJoint, length_buckets, paddable, padded, stack_structure, stacked_target
+from ..simulation.joint import LENGTH_GRID, JointProblem, StackedJoint, length_buckets, paddable, padded, stack_structure, stacked_target
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
 from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
@@ -176,7 +176,7 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
     args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
-    options = compiler_options(search.budget * max(sample_steps(s) for s in setups))
+    options = compiler_options(search.budget * max(sample_steps(s) for s in setups), batched)
     cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
                  tuple(sorted((options or {}).items())))  # fmt: skip
     t0 = time.perf_counter()
@@ -205,12 +205,14 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
 COMPILE_FES = 1e9
 
 # XLA:CPU compiles at LLVM optimisation level 3 by default, with its fusion emitters. At level 2
-# and without them (`dcjax.compiling.QUICK`) a search program compiles in about 0.45 of the time
-# (SD1: DE 1.60 -> 0.74 s, ABC 4.16 -> 1.29 s) to the same bits for the paper's methods and
-# memory (CMA-ES's linear algebra differs in the last bits), and its runs take up to 14 % longer
-# (memory-assisted ones up to 20 %): `python -m experiments.bench_compile_level`. A long search
-# keeps XLA's defaults (without the fusion emitters TLBO's long runs differ in the last bits).
-QUICK_COMPILE = QUICK
+# (`dcjax.compiling.QUICK`) a search program compiles in about half the time to the same bits for
+# the paper's methods and memory (CMA-ES's linear algebra differs in the last bits), and its runs
+# take up to 14 % longer; one setup's runs compile without the fusion emitters too (`LEAN`: SD1 DE
+# 1.60 -> 0.74 s, ABC 4.16 -> 1.29 s, the same bits), a batch of recordings with them (without,
+# 20 files of 20 lengths searched 13.2 s instead of 10.7 s): `python -m
+# experiments.bench_compile_level`, `python -m experiments.bench_each --lengths 400 1600`. A long
+# search keeps XLA's defaults.
+QUICK_COMPILE = QUICK | LEAN
 
 
 def sample_steps(setup: Setup) -> int:
@@ -218,22 +220,28 @@ def sample_steps(setup: Setup) -> int:
     return sum(p.n for p in setup.problems) * int(getattr(setup.integrator, "substeps", 1))
 
 
-def compiler_options(run_work: float) -> dict | None:
+def compiler_options(run_work: float, batched: bool = False) -> dict | None:
     """`QUICK_COMPILE` where one run is short against a compilation (`run_work`: its one-sample
-    FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: the ~40 % of a
-    compilation saved outweighs the <= 14 % of the search lost up to ~8 runs a device), else XLA's defaults
-    (None). Per run, so that neither the number of runs nor a batch changes a run's program."""
-    return QUICK_COMPILE if run_work < COMPILE_FES / 3 else None
+    FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: the compile time
+    saved outweighs the <= 14 % of the search lost up to ~8 runs a device), for a `batched` group
+    of recordings level 2 alone (`QUICK`), else XLA's defaults (None). Per run, so that neither
+    the number of runs nor the size of a batch changes a run's program (the options do not change
+    the paper's methods' bits either way)."""
+    if run_work >= COMPILE_FES / 3:
+        return None
+    return QUICK if batched else QUICK_COMPILE
 
 
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
     """The setups with single recordings of one structure but several lengths padded into length
     buckets, masked as in a joint fit, where one compilation fewer saves more than the padding
-    costs (`length_buckets`: a bucket's members are searched over its longest length, `runs x
+    costs (`length_buckets`: a bucket's members are searched over its top length, `runs x
     budget` FEs each; a compilation weighs `COMPILE_FES`): a folder of many lengths compiles a
-    few programs, not one per length. A padded recording is scored over its padded problem (the
-    same OF to rounding, so its runs may differ in the last bits from a fit of it alone); a
-    length alone in its bucket is not padded."""
+    few programs, not one per length. The tops are grid lengths (`on_length_grid`, at most 9 %
+    above a member), the same for every folder: a second folder of similar files finds its
+    programs in the persistent compilation cache. A padded recording is scored over its padded
+    problem (the same OF to rounding, so its runs may differ in the last bits from a fit of it
+    alone); recordings of one length only are not padded."""
     by_structure: dict = {}
     for k, s in enumerate(setups):
         if len(s.recordings) == 1 and paddable(s.problems[0]):
@@ -241,12 +249,12 @@ def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
             by_structure.setdefault(key, []).append(k)
     out = list(setups)
     for members in by_structure.values():
-        to = length_buckets([setups[k].problems[0].n for k in members], search.runs * search.budget, COMPILE_FES)
-        shared = {b for b in to.values() if sum(v == b for v in to.values()) > 1}  # buckets of several lengths
-        for k in members:
-            n = setups[k].problems[0].n
-            if to[n] in shared:
-                out[k] = dataclasses.replace(setups[k], problems=[padded(setups[k].problems[0], to[n])])
+        lengths = [setups[k].problems[0].n for k in members]
+        if len(set(lengths)) < 2:
+            continue
+        to = length_buckets(lengths, search.runs * search.budget, COMPILE_FES, LENGTH_GRID)
+        for k, n in zip(members, lengths):
+            out[k] = dataclasses.replace(setups[k], problems=[padded(setups[k].problems[0], to[n])])
     return out
 
 

@@ -8,6 +8,7 @@ residuals of a vector. Recordings of equal length and structure are stacked and 
 `vmap`ped scan: one compilation whatever their number."""
 
 import dataclasses
+import math
 
 import equinox as eqx
 import jax
@@ -110,17 +111,32 @@ def grid_length(n: int) -> int:
     return max(64, 1 << (int(n) - 1).bit_length())
 
 
-def length_buckets(lengths, fes: float, compile_fes: float) -> dict[int, int]:
+LENGTH_GRID = 8  # grid lengths per octave (`on_length_grid`): a recording is padded by at most 2^(1/8) - 1 = 9 %
+
+
+def on_length_grid(n: int, per_octave: int = LENGTH_GRID) -> int:
+    """The least length of the grid ceil(2^(k / per_octave)), k = 0, 1, ..., at or above `n`: a
+    bounded set of lengths, the same for every folder, so that programs compiled for one folder's
+    buckets serve the next (the persistent compilation cache)."""
+    k = max(0, math.floor(per_octave * math.log2(max(int(n), 1))) - 1)
+    while math.ceil(2 ** (k / per_octave)) < n:
+        k += 1
+    return math.ceil(2 ** (k / per_octave))
+
+
+def length_buckets(lengths, fes: float, compile_fes: float, per_octave: int | None = None) -> dict[int, int]:
     """Each length -> the length it is padded to, the buckets that minimise the estimated cost
     sum over buckets of (compile_fes + fes * top * members): one compilation costs as much as
     `compile_fes` FEs of one sample, each of a bucket's members is searched for `fes` FEs over
-    the bucket's longest length `top`. An exact partition of the sorted lengths (dynamic
-    programming); equal lengths always share a bucket."""
+    the bucket's top length. An exact partition of the sorted lengths (dynamic programming);
+    equal lengths always share a bucket. With `per_octave`, every top is a grid length
+    (`on_length_grid`): the lengths of one grid cell share a bucket, and the buckets are of cells."""
     count: dict[int, int] = {}
+    top_of = (lambda n: on_length_grid(n, per_octave)) if per_octave else (lambda n: int(n))
     for n in lengths:
-        count[int(n)] = count.get(int(n), 0) + 1
+        count[top_of(n)] = count.get(top_of(n), 0) + 1
     u = sorted(count, reverse=True)
-    best, cut = [0.0], [0]  # best[j]: the cost of the j longest lengths; cut[j]: where its last bucket starts
+    best, cut = [0.0], [0]  # best[j]: the cost of the j longest tops; cut[j]: where its last bucket starts
     for j in range(1, len(u) + 1):
         members, options = 0, []
         for i in range(j, 0, -1):  # the last bucket holds u[i-1] .. u[j-1], its top u[i-1]
@@ -129,12 +145,12 @@ def length_buckets(lengths, fes: float, compile_fes: float) -> dict[int, int]:
         cost, i = min(options)
         best.append(cost)
         cut.append(i)
-    out, j = {}, len(u)
+    bucket, j = {}, len(u)
     while j > 0:
         i = cut[j]
-        out |= {n: u[i - 1] for n in u[i - 1 : j]}
+        bucket |= {n: u[i - 1] for n in u[i - 1 : j]}
         j = i - 1
-    return out
+    return {int(n): bucket[top_of(n)] for n in lengths}
 
 
 def padded(problem: Problem, n: int) -> Problem:

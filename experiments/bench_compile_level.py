@@ -48,7 +48,7 @@ OPTIONS = {"default": {}, "level 2": QUICK, "level 2 lean": QUICK | LEAN}
 
 
 def measure(fit, options: dict, repeat: int) -> tuple[float, float, str]:
-    runs.compiler_options = lambda work, batched=False: options
+    runs.compiler_options = lambda work, lean=True: options
     runs.EXECUTABLES.clear()
     first = fit()
     search = statistics.median([fit().timing["run_s"] for _ in range(repeat)])
@@ -62,14 +62,15 @@ def main():
     args = ap.parse_args()
     rule, picked = runs.compiler_options, []
 
-    def recorded(work, batched=False):
-        picked.append("quick" if rule(work, batched) else "default")
-        return rule(work, batched)
+    def recorded(work, lean=True):
+        options = rule(work, lean)
+        picked.append("default" if options is None else "level 2 lean" if "xla_cpu_use_fusion_emitters" in options else "level 2")
+        return options
 
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, 1 XLA device; compile once per option set, search: "
           f"median of {args.repeat}; ratios and bits against XLA's defaults")  # fmt: skip
     head = f"{'case':<30}" + "".join(f" {'compile ' + k:>15} {'search ' + k:>14} {'bits':>5}" for k in OPTIONS)
-    print(head + f" {'rule':>8}")
+    print(head + f" {'rule':>13}")
     for label, fit in cases().items():
         row, base = f"{label:<30}", None
         for options in OPTIONS.values():
@@ -78,7 +79,7 @@ def main():
             row += f" {c:6.2f}s ({c / base[0]:4.2f}) {s:6.3f}s ({s / base[1]:4.2f}) {'same' if b == base[2] else 'DIFF':>5}"
         runs.compiler_options = recorded
         fit()
-        print(row + f" {picked[-1]:>8}", flush=True)
+        print(row + f" {picked[-1]:>13}", flush=True)
 
 
 if __name__ == "__main__":

@@ -60,7 +60,7 @@ class Posterior:
     acceptance: float
     likelihood: str  # "Gaussian", "Laplace", "Huber"
     noise: dict[str, float]  # "recording:channel" -> the noise scale in the channel's units
-    wall: dict[str, float]  # seconds: "warmup" (with its compilation), "sampling"
+    wall: dict[str, float]  # seconds: "warmup" (with the compilation of warmup and sampling), "sampling" (the draws alone)
     seed: int
     priors: dict[str, str] = dataclasses.field(default_factory=dict)  # name -> prior spec where not uniform in the range
 
@@ -294,10 +294,12 @@ def sample(
     mesh = chain_mesh(chains)
     states, params = _warmup(jax.random.split(k_warm, chains), starts, target, noise, space, white, prior, int(warmup), mesh)
     jax.block_until_ready(states)
+    args = (jax.random.split(k_draw, chains), states, params, target, noise, space, white, prior, int(draws), mesh)
+    draw = _draw.ahead(*args)  # pyright: ignore[reportFunctionMemberAccess]  # compiled before the sampling is timed
     t1 = time.perf_counter()
-    pos, div, steps, acc = _draw(jax.random.split(k_draw, chains), states, params, target, noise, space, white, prior, int(draws), mesh)
-    free, rhat, ess_bulk, ess_tail = map(np.asarray, _diagnostics(pos, space, white))
+    pos, div, steps, acc = jax.block_until_ready(draw(*args))
     t2 = time.perf_counter()
+    free, rhat, ess_bulk, ess_tail = map(np.asarray, _diagnostics(pos, space, white))
     names = space.free_names
     return Posterior(
         names=names,

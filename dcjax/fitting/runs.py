@@ -176,7 +176,7 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
     args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
-    options = compiler_options(search.budget * max(sample_steps(s) for s in setups), batched)
+    options = compiler_options(search.budget * max(sample_steps(s) for s in setups), lean=not batched and search.memory is None)
     cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
                  tuple(sorted((options or {}).items())))  # fmt: skip
     t0 = time.perf_counter()
@@ -208,10 +208,10 @@ COMPILE_FES = 1e9
 # (`dcjax.compiling.QUICK`) a search program compiles in about half the time to the same bits for
 # the paper's methods and memory (CMA-ES's linear algebra differs in the last bits), and its runs
 # take up to 14 % longer; one setup's runs compile without the fusion emitters too (`LEAN`: SD1 DE
-# 1.60 -> 0.74 s, ABC 4.16 -> 1.29 s, the same bits), a batch of recordings with them (without,
-# 20 files of 20 lengths searched 13.2 s instead of 10.7 s): `python -m
-# experiments.bench_compile_level`, `python -m experiments.bench_each --lengths 400 1600`. A long
-# search keeps XLA's defaults.
+# 1.77 -> 0.71 s, ABC 4.47 -> 1.39 s, the same bits), a batch of recordings and a memory-assisted
+# search with them (without, 20 files of 20 lengths searched 13.2 s instead of 10.7 s, SD1 LTMA
+# 3.75 s instead of 3.09 s): `python -m experiments.bench_compile_level`, `python -m
+# experiments.bench_each --lengths 400 1600`. A long search keeps XLA's defaults.
 QUICK_COMPILE = QUICK | LEAN
 
 
@@ -220,16 +220,17 @@ def sample_steps(setup: Setup) -> int:
     return sum(p.n for p in setup.problems) * int(getattr(setup.integrator, "substeps", 1))
 
 
-def compiler_options(run_work: float, batched: bool = False) -> dict | None:
+def compiler_options(run_work: float, lean: bool = True) -> dict | None:
     """`QUICK_COMPILE` where one run is short against a compilation (`run_work`: its one-sample
     FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: the compile time
-    saved outweighs the <= 14 % of the search lost up to ~8 runs a device), for a `batched` group
-    of recordings level 2 alone (`QUICK`), else XLA's defaults (None). Per run, so that neither
-    the number of runs nor the size of a batch changes a run's program (the options do not change
-    the paper's methods' bits either way)."""
+    saved outweighs the <= 14 % of the search lost up to ~8 runs a device), level 2 alone
+    (`QUICK`) where not `lean` (a batch of recordings, a memory-assisted search: without the fusion
+    emitters they search 25-27 % slower), else XLA's defaults (None). Per run, so that neither the
+    number of runs nor the size of a batch changes a run's program (the options do not change the
+    paper's methods' bits either way)."""
     if run_work >= COMPILE_FES / 3:
         return None
-    return QUICK if batched else QUICK_COMPILE
+    return QUICK_COMPILE if lean else QUICK
 
 
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:

@@ -85,7 +85,7 @@ def legacy_parameters(recordings, model: Model, bounds, fixed, x0, precision) ->
     """0.1's bounds/fixed/x0/precision as `Parameters` (and start rows that a `Parameters` cannot
     hold: a list of start vectors)."""
     if isinstance(bounds, str) and bounds.lower() == "auto":
-        params = resolve_parameters("auto", recordings, model)
+        params = resolve_parameters("auto", recordings, model)[0]
         if x0 is not None:  # given start values replace the estimate's
             for p in params.values():
                 p.value = None

@@ -4,9 +4,10 @@ equinox's `filter_jit` with them.
 XLA:CPU's fusion emitters (its newer code generator for fused loops) cost compile time that most
 of dcjax's programs do not win back: without them (`LEAN`) a short search compiles in 0.6-0.8 of
 the time to the same bits and runs as fast (`python -m experiments.bench_compile_level`), the
-sampler's programs in 0.75 (8.1 -> 6.2 s on SD1) and run within 8 %. Not everywhere: a batch of
-recordings (`fit_each`) searched 25 % slower without them, and the Levenberg–Marquardt polish's
-last bits change, so those keep them."""
+sampler's programs in 0.75 (8.1 -> 6.2 s on SD1) and run within 8 %. Not free everywhere: a batch
+of recordings (`fit_each`) and a memory-assisted search run 25-27 % slower without them (the
+short searches take that for one rule for every run's program), and the Levenberg–Marquardt
+polish's last bits change, so it keeps them."""
 
 import functools
 from collections.abc import Callable

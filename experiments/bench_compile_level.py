@@ -48,7 +48,7 @@ OPTIONS = {"default": {}, "level 2": QUICK, "level 2 lean": QUICK | LEAN}
 
 
 def measure(fit, options: dict, repeat: int) -> tuple[float, float, str]:
-    runs.compiler_options = lambda work, lean=True: options
+    runs.compiler_options = lambda work: options
     runs.EXECUTABLES.clear()
     first = fit()
     search = statistics.median([fit().timing["run_s"] for _ in range(repeat)])
@@ -62,8 +62,8 @@ def main():
     args = ap.parse_args()
     rule, picked = runs.compiler_options, []
 
-    def recorded(work, lean=True):
-        options = rule(work, lean)
+    def recorded(work):
+        options = rule(work)
         picked.append("default" if options is None else "level 2 lean" if "xla_cpu_use_fusion_emitters" in options else "level 2")
         return options
 

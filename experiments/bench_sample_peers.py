@@ -18,6 +18,7 @@ Needs pyPESTO, lmfit, emcee and numba beside dcjax (not dcjax's dependencies: a 
 `pip install -e . pypesto lmfit emcee numba`).
 
     python -m experiments.bench_sample_peers [--space log|table4] [--emcee-steps 20000] [--am-samples 100000]
+    XLA_FLAGS=--xla_force_host_platform_device_count=2 python -m experiments.bench_sample_peers   # dcjax's chains on 2 devices
 """
 
 import argparse

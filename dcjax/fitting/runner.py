@@ -99,8 +99,3 @@ class ExecutableCache:
 
     def __len__(self) -> int:
         return len(self._items)
-
-
-def leaf_signature(args) -> tuple:
-    """Tree structure and (shape, dtype) of every array leaf: part of an executable's key."""
-    return (jax.tree.structure(args), tuple((getattr(x, "shape", None), getattr(x, "dtype", type(x))) for x in jax.tree.leaves(args)))

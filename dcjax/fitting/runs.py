@@ -30,7 +30,7 @@ from ..models.space import Space
 from ..simulation.joint import LENGTH_GRID, JointProblem, StackedJoint, length_buckets, paddable, padded, stack_structure, stacked_target
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
-from .runner import ExecutableCache, fold_keys, leaf_signature, mesh_of, padded_size, replicate, shard, to_host
+from .runner import ExecutableCache, fold_keys, mesh_of, padded_size, replicate, shard, to_host
 from .setup import Search, Setup
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
@@ -90,6 +90,11 @@ def _report(token, device, member, done) -> None:
         meter.report(device, member, done)
 
 
+def leaf_signature(args) -> tuple:
+    """Tree structure and (shape, dtype) of every array leaf: part of an executable's key."""
+    return (jax.tree.structure(args), tuple((getattr(x, "shape", None), getattr(x, "dtype", type(x))) for x in jax.tree.leaves(args)))
+
+
 def compile_key(search: Search, program: BatchProgram) -> tuple:
     """What of a search an executable is compiled for (the traced hyperparameters are arguments)."""
     return (program.key, search.budget, search.memory, search.generations)
@@ -131,14 +136,15 @@ def _stack(trees):
     return jax.tree.map(lambda *xs: np.stack([np.asarray(x) for x in xs]), *trees)
 
 
-def _group_args(setups: list[Setup], search: Search, pad: int):
-    """(target, space, precision, x0, member) of a group: one setup's as they are, several stacked
-    (start rows padded with NaN to the most any setup has), `pad` copies of the last appended."""
+def _group_args(setups: list[Setup], targets: list, search: Search, pad: int):
+    """(target, space, precision, x0, member) of a group (`targets`: the setups' objectives as the
+    runs take them, `stacked_target`): one setup's as they are, several stacked (start rows padded
+    with NaN to the most any setup has), `pad` copies of the last appended."""
     prec = None if search.memory is None else [s.precision() for s in setups]
     if len(setups) == 1 and pad == 0:
         s = setups[0]
         return (
-            stacked_target(s.target),
+            targets[0],
             s.space,
             None if prec is None else jnp.asarray(prec[0]),
             None if s.starts is None else jnp.asarray(s.starts),
@@ -150,21 +156,24 @@ def _group_args(setups: list[Setup], search: Search, pad: int):
                                            np.pad(s.starts, ((0, k_max - s.starts.shape[0]), (0, 0)), constant_values=np.nan)
                                            for s in setups])  # fmt: skip
     more = lambda items: items + [items[-1]] * pad
-    return (_stack(more([s.target for s in setups])), _stack(more([s.space for s in setups])),
+    return (_stack(more(list(targets))), _stack(more([s.space for s in setups])),
             None if prec is None else np.stack(more(prec)), None if z0 is None else np.concatenate([z0] + [z0[-1:]] * pad),
             np.arange(len(setups) + pad))  # fmt: skip
 
 
-def run_group(setups: list[Setup], search: Search, program: BatchProgram, report: Callable[[float], object] | None = None) -> list[tuple]:
-    """The runs of a group of setups of one `group_key` in one compiled call: per setup its runs'
-    outputs (`RunOutput`, padding dropped) and the timing. `report`: called with the fraction done."""
+def run_group(
+    setups: list[Setup], targets: list, search: Search, program: BatchProgram, report: Callable[[float], object] | None = None
+) -> list[tuple]:
+    """The runs of a group of setups of one `group_key` in one compiled call (`targets`: their
+    objectives, `stacked_target`): per setup its runs' outputs (`RunOutput`, padding dropped) and
+    the timing. `report`: called with the fraction done."""
     runs, n = search.runs, len(setups)
     batched = n > 1
     axis = "recordings" if runs == 1 and batched else "runs"  # one run of many recordings: split the recordings
     devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
     mesh = mesh_of(devices, axis)
     pad = padded_size(n, devices) - n if axis == "recordings" else 0
-    target, space, prec, z0, member = _group_args(setups, search, pad)
+    target, space, prec, z0, member = _group_args(setups, targets, search, pad)
     if axis == "recordings":
         keys = replicate(fold_keys(search.seed, runs), mesh)
         target, space, prec, z0, member = (jax.tree.map(lambda a: shard(a, mesh, axis), b) for b in (target, space, prec, z0, member))
@@ -176,7 +185,7 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
     args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
-    options = compiler_options(search.budget * max(sample_steps(s) for s in setups), lean=not batched and search.memory is None)
+    options = compiler_options(search.budget * max(sample_steps(s) for s in setups))
     cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
                  tuple(sorted((options or {}).items())))  # fmt: skip
     t0 = time.perf_counter()
@@ -205,13 +214,13 @@ def run_group(setups: list[Setup], search: Search, program: BatchProgram, report
 COMPILE_FES = 1e9
 
 # XLA:CPU compiles at LLVM optimisation level 3 by default, with its fusion emitters. At level 2
-# (`dcjax.compiling.QUICK`) a search program compiles in about half the time to the same bits for
-# the paper's methods and memory (CMA-ES's linear algebra differs in the last bits), and its runs
-# take up to 14 % longer; one setup's runs compile without the fusion emitters too (`LEAN`: SD1 DE
-# 1.77 -> 0.71 s, ABC 4.47 -> 1.39 s, the same bits), a batch of recordings and a memory-assisted
-# search with them (without, 20 files of 20 lengths searched 13.2 s instead of 10.7 s, SD1 LTMA
-# 3.75 s instead of 3.09 s): `python -m experiments.bench_compile_level`, `python -m
-# experiments.bench_each --lengths 400 1600`. A long search keeps XLA's defaults.
+# and without the fusion emitters (`dcjax.compiling.QUICK | LEAN`) a search program compiles in
+# 0.31-0.55 of the time (SD1 DE 1.77 -> 0.71 s, ABC 4.47 -> 1.39 s) to the same bits for the paper's
+# methods and memory (CMA-ES's linear algebra differs in the last bits) and searches in 0.90-1.08
+# of the time; a memory-assisted search 1.27 and a batch of recordings (20 files of 20 lengths)
+# 1.25 of it, which one rule for every run's program accepts: `python -m
+# experiments.bench_compile_level`, `python -m experiments.bench_each --lengths 400 1600`. A long
+# search keeps XLA's defaults.
 QUICK_COMPILE = QUICK | LEAN
 
 
@@ -220,17 +229,14 @@ def sample_steps(setup: Setup) -> int:
     return sum(p.n for p in setup.problems) * int(getattr(setup.integrator, "substeps", 1))
 
 
-def compiler_options(run_work: float, lean: bool = True) -> dict | None:
+def compiler_options(run_work: float) -> dict | None:
     """`QUICK_COMPILE` where one run is short against a compilation (`run_work`: its one-sample
     FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: the compile time
-    saved outweighs the <= 14 % of the search lost up to ~8 runs a device), level 2 alone
-    (`QUICK`) where not `lean` (a batch of recordings, a memory-assisted search: without the fusion
-    emitters they search 25-27 % slower), else XLA's defaults (None). Per run, so that neither the
-    number of runs nor the size of a batch changes a run's program (the options do not change the
-    paper's methods' bits either way)."""
-    if run_work >= COMPILE_FES / 3:
-        return None
-    return QUICK_COMPILE if lean else QUICK
+    saved outweighs the <= 14 % of the search lost up to ~8 runs a device, 25-27 % for a batch of
+    recordings or a memory-assisted search), else XLA's defaults (None). Per run, so that neither
+    the number of runs nor a batch changes a run's program (CMA-ES's last bits differ between the
+    options)."""
+    return QUICK_COMPILE if run_work < COMPILE_FES / 3 else None
 
 
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
@@ -264,6 +270,7 @@ def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple
     recordings of close lengths padded into one, `bucketed`): per setup, in order, its runs'
     outputs, the timing and the setup as it ran (itself, or padded)."""
     setups = bucketed(setups, search)
+    targets = [stacked_target(s.target) for s in setups]  # a joint fit of one stacked group: held stacked
     groups: dict = {}
     for k, s in enumerate(setups):
         groups.setdefault(group_key(s), []).append(k)
@@ -278,7 +285,9 @@ def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple
             share = len(members) / len(setups)
             base = done / len(setups)
             report = None if overall is None else lambda f, base=base, share=share: overall(base + share * f)
-            for k, (outs, timing) in zip(members, run_group([setups[k] for k in members], search, program, report)):
+            for k, (outs, timing) in zip(
+                members, run_group([setups[k] for k in members], [targets[k] for k in members], search, program, report)
+            ):
                 out[k] = (outs, timing, setups[k])
             done += len(members)
             if report is not None:

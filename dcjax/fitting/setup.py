@@ -21,7 +21,7 @@ from ..simulation.problem import Problem, check_positive_int, make_problem
 from ..strategies import METHODS, Strategy, make_strategy
 from ..strategies.memory import MemoryAssistance
 from .observation import Observation
-from .vector import base_name, resolve_parameters, search_vector, split_parameters, start_rows
+from .vector import base_name, resolve_parameters, search_vector, start_rows
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,8 +186,7 @@ class Plan:
         form `start_rows` takes, instead of the parameters' values."""
         recordings, model = list(recordings), self.model
         observation = self.observation.with_defaults(model.outputs, recordings)
-        resolved = resolve_parameters(params, recordings, model)
-        own, extras = split_parameters(resolved, model)
+        own, extras = resolve_parameters(params, recordings, model)
         local = [n for n, p in own.items() if p.local and not p.vary]
         if local and len(recordings) > 1:
             raise ValueError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")

@@ -181,10 +181,11 @@ def rows_of(layout: Layout, rows: list[int]) -> Layout:
                                offset_cols=pick(layout.offset_cols), delay_cols=pick(layout.delay_cols))  # fmt: skip
 
 
-def resolve_parameters(params, recordings: list[Recording], model: Model) -> Parameters:
-    """`Parameters` from `params`: None (the recordings' sidecar preset where they name one, else
-    "auto"), a preset name, "auto" (`dcjax.analysis.estimate.auto_bounds`: ranges from an
-    equation-error first estimate, whose values seed the search) or `Parameters` (copied)."""
+def resolve_parameters(params, recordings: list[Recording], model: Model) -> tuple[Parameters, Parameters]:
+    """(the model's `Parameters`, the observation's given ones) from `params`: None (the
+    recordings' sidecar preset where they name one, else "auto"), a preset name, "auto"
+    (`dcjax.analysis.estimate.auto_bounds`: ranges from an equation-error first estimate, whose
+    values seed the search) or `Parameters` (copied; split by `split_parameters`)."""
     if params is None:
         named = {r.metadata.get("bounds") for r in recordings}
         preset = named.pop() if len(named) == 1 else None
@@ -193,19 +194,19 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> Par
         from ..analysis.estimate import auto_bounds
 
         bounds, start, _ = auto_bounds(recordings, model)
-        return parameters_of(model, bounds, start)
+        return parameters_of(model, bounds, start), Parameters()
     if isinstance(params, str):
-        return model.parameters(params)
+        return model.parameters(params), Parameters()
     if not isinstance(params, Parameters):
         raise ValueError(
             f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
         )
-    own, extras = split_parameters(params, model)
+    own, extras = split_parameters(params, model)  # copies
     own.check(model.names, model.name)
     for n, p in extras.items():
         if p.vary and p.min > p.max:
             raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
-    return params.copy()
+    return own, extras
 
 
 def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:

@@ -20,11 +20,13 @@ def _fit(tmp_path, out, **env):
 def test_second_identical_fit_compiles_from_the_cache(tmp_path):
     cache = tmp_path / "cache"
     first = _fit(tmp_path, "a", DCJAX_CACHE_DIR=str(cache))
-    assert any(cache.iterdir())
+    entries = set(cache.iterdir())
+    assert entries
     second = _fit(tmp_path, "b", DCJAX_CACHE_DIR=str(cache))
     assert second["runs"] == first["runs"]
-    # Tracing and lowering remain (~0.4 s here); the XLA compilation itself is skipped.
-    assert second["timing"]["compile_s"] < 0.5 * first["timing"]["compile_s"], (first["timing"], second["timing"])
+    # Every executable is cached (min_compile_seconds=0), so one compiled again would be a new
+    # entry: the second process compiled nothing (its tracing and lowering remain, ~0.4 s here).
+    assert set(cache.iterdir()) == entries
 
 
 @pytest.mark.slow

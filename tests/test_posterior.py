@@ -106,6 +106,22 @@ def test_own_priors_are_their_densities_within_the_range_against_scipy():
         prior_term(space, {"Tlz": "halfnormal(1)"})
 
 
+def test_linearised_intervals_beside_the_posterior_are_normal_quantiles():
+    """`Uncertainty.intervals` (the linearised column of `dcjax sample` and of `dcjax report`'s
+    [[Posterior]]): value +- z se with scipy's normal quantile; NaN where no standard error."""
+    from scipy import stats
+
+    from dcjax.analysis.uncertainty import Uncertainty
+
+    u = Uncertainty(params={"a": 2.0, "b": -1.0}, se={"a": 0.5, "b": float("nan")}, ci95={}, correlation=np.eye(2), verdict={}, reason={},
+                    singular_values=np.ones(2), dof=10, s2=1.0)  # fmt: skip
+    for prob in (0.9, 0.95):
+        lo, hi = u.intervals(["a"], prob)["a"]
+        z = stats.norm.ppf((1 + prob) / 2)
+        assert lo == pytest.approx(2.0 - 0.5 * z, rel=1e-14) and hi == pytest.approx(2.0 + 0.5 * z, rel=1e-14)
+    assert all(np.isnan(v) for v in u.intervals(["b"])["b"])
+
+
 @pytest.fixture(scope="module")
 def noisy_sd1():
     sd1, truth = datasets.load("SD1"), datasets.true_params("SD1")

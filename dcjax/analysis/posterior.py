@@ -211,8 +211,9 @@ def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space, prior: P
 
 def _over_chains(fn, mesh, chained: int, *args):
     """`jax.vmap(fn)` over the leading (chains) axis of the first `chained` arguments, the rest
-    shared; on a mesh each device runs its share of the chains (`shard_map`; the same bits: each
-    chain's arithmetic does not depend on how many run beside it)."""
+    shared; on a mesh each device runs its share of the chains (`shard_map`; a batch of fewer
+    chains compiles to other roundings: the draws agree with one device's to rounding, not bit
+    for bit)."""
     batched = jax.vmap(fn, in_axes=(0,) * chained + (None,) * (len(args) - chained))
     if mesh is None:
         return batched(*args)

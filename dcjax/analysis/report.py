@@ -102,12 +102,7 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
         lines.append(f"[[Correlations]] (unreported correlations are < {correl_threshold:.3f})")
         lines += [f"    C({a}, {b}) = {c:+.4f}" for a, b, c in pairs] or ["    none"]
     if posterior is not None:
-        z90 = 1.6448536269514722
-        lin = (
-            None
-            if u is None
-            else {n: (result.best_values[n] - z90 * u.se[n], result.best_values[n] + z90 * u.se[n]) for n in posterior.names}
-        )
+        lin = None if u is None else u.intervals(posterior.names)  # pyright: ignore[reportAttributeAccessIssue]
         lines.append("[[Posterior]]" + ("" if u is not None else " (linearised intervals: add --uncertainty)"))
         lines += [f"    {line}" for line in posterior.table(lin).splitlines()]
     derived = m.derived(result.values(0) if hasattr(result, "values") else result.best_values)  # a local one: the first recording's

@@ -11,6 +11,7 @@ intervals are x_k +- t_{0.975, m-p} se_k. A profile likelihood re-fits all other
 one held fixed (Levenberg–Marquardt) over a grid."""
 
 import dataclasses
+import statistics
 
 import jax
 import jax.numpy as jnp
@@ -45,6 +46,12 @@ class Uncertainty:
     @property
     def names(self) -> tuple[str, ...]:
         return tuple(self.params)
+
+    def intervals(self, names, prob: float = 0.9) -> dict[str, tuple[float, float]]:
+        """The linearised central `prob` interval value +- z se of each of `names` (NaN where a
+        null direction leaves no standard error)."""
+        z = statistics.NormalDist().inv_cdf((1 + prob) / 2)
+        return {n: (self.params[n] - z * self.se[n], self.params[n] + z * self.se[n]) for n in names}
 
     def strong_correlations(self, threshold: float = 0.9) -> list[tuple[str, str, float]]:
         """Pairs of parameters correlated above `threshold` in absolute value, strongest first."""

@@ -31,8 +31,8 @@ def main(argv: list[str] | None = None) -> int:
         warnings.simplefilter("ignore")
         use_compiled_loops()  # a population's time loop as one CPU function (XLA_FLAGS set by the user: kept)
     # A repeated fit, or a similar folder, loads its executables (DCJAX_NO_CACHE=1: off); every one,
-    # the small ones too: a second folder of 20 files then compiled 0.25 s instead of 1.26 s
-    # (`python -m experiments.bench_each --lengths 400 1600 --again`).
+    # the small ones too: a similar second folder of 20 files then spent 0.25 s in XLA (cache
+    # reads) instead of 1.26 s (`python -m experiments.bench_each --lengths 400 1600 --again`).
     use_compilation_cache(min_compile_seconds=0.0)
     with warnings.catch_warnings():
         warnings.showwarning = _one_line_warning  # inside this block only (catch_warnings restores it)

@@ -112,9 +112,7 @@ def sample_cmd(args) -> int:
     post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed, priors=_named_priors(args.prior))
     u = res.uncertainty().uncertainties
     assert u is not None
-    z90 = 1.6448536269514722
-    lin = {n: (u.params[n] - z90 * u.se[n], u.params[n] + z90 * u.se[n]) for n in post.names}  # NaN where a null direction
-    print(post.table(lin))
+    print(post.table(u.intervals(post.names)))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     post.save(out / "posterior.npz")

@@ -191,7 +191,7 @@ def test_equal_length_recordings_share_one_vmapped_objective(sd1, truth):
 
 def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(sd1, truth):
     """`stacked_target`: a joint problem of one group (equal lengths; close ones padded) held
-    stacked gives the JointProblem's OF to the bit, and its compiled objective does not grow with
+    stacked gives the JointProblem's OF to the bit (and its residuals, the polish's), and its compiled objective does not grow with
     the number of recordings (a JointProblem's stacks and splits them inside: 476 servo logs
     compiled 4.7 s, and 22.7 s over two devices, against 2.4 s and 2.6 s stacked)."""
     import jax
@@ -209,6 +209,9 @@ def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(
         held = stacked_target(target)
         assert isinstance(held, StackedJoint) and target.groups() == [(0, 1, 2)]
         np.testing.assert_array_equal(of(held, x), of(target, x))
+        r_held, r_joint = held.residuals(x[1]), target.residuals(x[1])  # the polish's: the same rows, padding as zeros
+        np.testing.assert_array_equal(r_held[r_held != 0], r_joint[r_joint != 0])
+        np.testing.assert_allclose(r_held @ r_held, of(target, x)[1], rtol=1e-12)
     size = lambda t: len(of.lower(t, x).as_text())
     few, many = joint_problem(problems(2)), joint_problem(problems(24))
     grows, grows_stacked = size(many) - size(few), size(stacked_target(many)) - size(stacked_target(few))
@@ -263,3 +266,32 @@ def test_local_offsets_and_the_search_vector_layout(sd1):
     )  # i_a starts at its sample less the offset
     settings = settings_of(setup, Search(dcjax.strategies.DERand1Exp(), runs=1, budget=700))
     assert settings["local"] == ["offset_i_a", "y0_omega"] and settings["names"] == list(names)
+
+
+@pytest.mark.slow
+def test_one_run_of_a_large_joint_fit_splits_its_recordings_over_two_devices():
+    """With 2 XLA CPU devices one run of a stacked joint fit above `SPLIT_STEPS` splits its
+    recordings (`SplitJoint`; 5 recordings: one padding copy of weight 0): the same search as on
+    one device to rounding (the OF's sum in another order), the same bits again with the same seed."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import json, dcjax, dcjax.fitting.runs as R; from dcjax import datasets;"
+        "recs = [datasets.load(n) for n in ('SD1', 'SD2', 'SD3', 'SD4')];"
+        "recs.append(recs[0].replace(name='SD1-again', channels={c: 1.01 * v for c, v in recs[0].channels.items()}));"
+        "fit = lambda: dcjax.fit(recs, params='table4', method='cma-es', runs=1, budget=1200, seed=2);"
+        "R.SPLIT_STEPS = 0; a, again = fit(), fit(); R.SPLIT_STEPS = 1 << 62; b = fit();"
+        "print(json.dumps({'devices': [a.timing['devices'], b.timing['devices']], 'of': [a.of, again.of, b.of],"
+        "'x': [list(a.best_values.values()), list(again.best_values.values()), list(b.best_values.values())]}))"
+    )
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr[-3000:]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert out["devices"] == [2, 1], out
+    assert out["of"][0] == out["of"][1] and out["x"][0] == out["x"][1], out  # same seed, same bits
+    np.testing.assert_allclose(out["of"][0], out["of"][2], rtol=1e-6)
+    np.testing.assert_allclose(out["x"][0], out["x"][2], rtol=1e-4)

@@ -18,7 +18,7 @@ covariance also seeds the dense mass matrix of Stan's window adaptation
 (`blackjax.window_adaptation`). Diagnostics are Vehtari et al. (2021)'s rank-normalised split R-hat,
 bulk and tail ESS (`blackjax.diagnostics`). blackjax rather than numpyro: dcjax already has a log
 density as a pure JAX function of a vector, which is blackjax's whole interface (no model DSL), and
-its kernels vmap over chains."""
+its kernels map or vmap over chains."""
 
 import dataclasses
 import time
@@ -210,11 +210,21 @@ def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space, prior: P
 
 
 def _over_chains(fn, mesh, chained: int, *args):
-    """`jax.vmap(fn)` over the leading (chains) axis of the first `chained` arguments, the rest
-    shared; on a mesh each device runs its share of the chains (`shard_map`; a batch of fewer
-    chains compiles to other roundings: the draws agree with one device's to rounding, not bit
-    for bit)."""
-    batched = jax.vmap(fn, in_axes=(0,) * chained + (None,) * (len(args) - chained))
+    """`fn` over the leading (chains) axis of the first `chained` arguments, the rest shared; on a
+    mesh each device runs its share of the chains (`shard_map`). On a CPU a device's chains run
+    one after another (`lax.map`: a chain's program, and its draws to the bit, do not depend on
+    how many chains share its device), elsewhere side by side (`vmap`): a
+    vmapped NUTS batch waits each draw for its longest trajectory, and XLA:CPU's gradient of 2 or
+    4 chains side by side costs more than one chain's times their number (SD1: 34.5 us one, 44 us
+    a chain in a batch; `experiments/BENCHMARKS.md`, sampler against the peers)."""
+    lead = (0,) * chained + (None,) * (len(args) - chained)
+    one_by_one = (mesh.devices.flat[0] if mesh is not None else jax.devices()[0]).platform == "cpu"
+
+    def batched(*a):
+        if one_by_one:
+            return jax.lax.map(lambda c: fn(*c, *a[chained:]), a[:chained])
+        return jax.vmap(fn, in_axes=lead)(*a)
+
     if mesh is None:
         return batched(*args)
     dynamic, static = eqx.partition(args, eqx.is_array)
@@ -271,8 +281,8 @@ def sample(
 ) -> Posterior:  # fmt: skip
     """NUTS draws of the free entries of search vector `x` (the fit's optimum) under `loss`'s
     likelihood and `space`'s prior (`priors`: name -> `Prior` or spec, replacing the uniform one
-    within the range); `seed` fixes every bit. The chains run side by side (vmapped), split over
-    the devices where there are several (`chain_mesh`)."""
+    within the range); `seed` fixes every bit. The chains run in one program, split over the
+    devices where there are several (`chain_mesh`; `_over_chains`)."""
     for name, v, least in (("draws", draws, 1), ("chains", chains, 1), ("warmup", warmup, 0)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < least:
             raise ValueError(f"{name} must be an integer >= {least}, got {v!r}")

@@ -139,8 +139,13 @@ def uncertainty(
     weak_rel_se: float = 0.1,
     not_rel_se: float = 1.0,
     rcond: float = 1e-10,
+    robust: JointProblem | None = None,
 ) -> Uncertainty:
     """Standard errors, 95 % intervals, correlations and a verdict per parameter at `x`.
+
+    `robust`: the fit's own target where its loss is not the squared error (l1, huber): the
+    covariance is then that loss's sandwich (`dcjax.analysis.sandwich`), in the subspace that J
+    determines; `problems` stays the squared-error form whose J finds the null directions.
 
     Verdicts: *not identifiable from this recording* when the parameter sits on a bound, loads on a
     null direction of J (singular value below `rcond` x the largest), or its relative standard error
@@ -168,6 +173,8 @@ def uncertainty(
     keep = sv > rcond * sv[0]
     inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)
     cov_z = (vt.T * inv) @ vt * s2
+    if robust is not None:
+        cov_z = _sandwich_z(x, robust, fidx, width, vt[keep], cov_z)
     cov = cov_z * np.outer(width, width)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     d = np.where(se > 0, se, 1.0)
@@ -221,6 +228,20 @@ def uncertainty(
         null_names=tuple(free_names[k] for k in null_idx),
         combinations=combos,
     )
+
+
+def _sandwich_z(x, robust: JointProblem, fidx, width, basis, fallback):
+    """H^-1 V H^-1 in bound-scaled coordinates, within the span of `basis` (J's determined
+    directions); `fallback` where the loss leaves no density to estimate (all errors 0)."""
+    from .sandwich import sandwich
+
+    hess, var = sandwich(x, robust, fidx)
+    hz, vz = hess * np.outer(width, width), var * np.outer(width, width)
+    h_r, v_r = basis @ hz @ basis.T, basis @ vz @ basis.T
+    if not (np.all(np.isfinite(h_r)) and np.all(np.isfinite(v_r))):
+        return fallback
+    h_inv = np.linalg.pinv(h_r)
+    return basis.T @ (h_inv @ v_r @ h_inv) @ basis
 
 
 ABSOLUTE_SHARE = 1e-3  # a standard error this share of the parameter's range determines it, whatever its value

@@ -12,6 +12,7 @@ import numpy as np
 from ..io.recording import Recording
 from ..models import model_spec
 from ..simulation.integrators import AutoSubsteps, integrator_spec
+from ..simulation.joint import stacked_target
 from .result import FitResult
 from .runs import run_setups
 from .setup import Plan, Search, Setup
@@ -23,7 +24,7 @@ def polish_runs(run_x, setup: Setup):
     from .polish import polish_batch
 
     t0 = time.perf_counter()
-    pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), setup.target, setup.space))
+    pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), stacked_target(setup.target), setup.space))
     info = {
         "of_before": np.asarray(pol.of_before).tolist(),
         "of_after": np.asarray(pol.of_after).tolist(),

@@ -15,7 +15,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ..models.space import Space
-from ..simulation.joint import JointProblem, joint_problem
+from ..simulation.joint import JointProblem, StackedJoint, joint_problem
 from ..simulation.problem import Problem
 
 
@@ -97,7 +97,7 @@ def levenberg_marquardt(fn, y0: Float[Array, " F"], rtol: float = 1e-12, atol: f
 
 def polish(
     x: Float[Array, " P"],
-    problem: Problem | list[Problem] | JointProblem,
+    problem: Problem | list[Problem] | JointProblem | StackedJoint,
     space: Space,
     joint_weights: list[float] | None = None,
     rtol: float = 1e-12,
@@ -107,7 +107,7 @@ def polish(
     """Minimize sum(r(x)^2) (= OF) with `levenberg_marquardt` from `x` (physical units, all
     parameters) over the free parameters of `space`; fixed ones stay at their values. `problem`:
     one recording's, several (a joint fit, `joint_weights`), or a fit's `JointProblem` (its
-    search vector: local parameters, fitted initial states, offsets, delays).
+    search vector: local parameters, fitted initial states, offsets, delays) or `StackedJoint`.
 
     Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
     (relative) of a bound is moved that far inside. The result is only accepted when its OF is
@@ -115,7 +115,9 @@ def polish(
     the solver stopped at `max_steps` or found no finite residual."""
     eps = 1e-12
     target = (
-        problem if isinstance(problem, JointProblem) else joint_problem(problem if isinstance(problem, list) else [problem], joint_weights)
+        problem
+        if isinstance(problem, JointProblem | StackedJoint)
+        else joint_problem(problem if isinstance(problem, list) else [problem], joint_weights)
     )
 
     def fn(y):

@@ -193,8 +193,10 @@ class FitResult:
         space = self.space
         x = np.array([self.best_values[n] for n in self.names])
         loss = self.observation.loss
-        target = self.target(loss=None if loss.least_squares else get_loss("sse", loss.normalize))
-        u = uncertainty(x, target, space)
+        sse = get_loss("sse", loss.normalize)
+        own = self.target()
+        target = own if loss.least_squares else self.target(loss=sse)  # J (null directions) and the profile's OF
+        u = uncertainty(x, self.target(loss=sse) if loss.least_squares else target, space, robust=None if loss == sse else own)
         u.approximation = self.observation.loss.approximation
         if profile is not None:
             if profile not in self.names:

@@ -7,11 +7,13 @@ setups of equal structure (`run_setups`). One fit, a joint fit and a batch of re
 - a group of several single-recording setups of one structure (length, channels, limit, free
   parameters, layout) is stacked into one batched target and space (each recording keeps its
   own bounds, start values and precisions) and `vmap`ped over the recordings; several runs are
-  split over the devices along the runs, one run of many recordings along the recordings.
+  split over the devices along the runs, one run of many recordings along the recordings;
+- one run of a joint fit of many samples (`splits_recordings`) splits its stacked recordings over
+  the devices (`SplitJoint`), the search repeated on each.
 
 Run r is keyed by `fold_in(PRNGKey(seed), r)` for every recording alike, so a recording gets
 the same result in a batch as alone, and a run does not depend on how many others are made or
-on the device count. Data are arguments, not constants: recordings of equal structure reuse one
+on the device count (but for a split joint fit's, whose OF is summed in another order). Data are arguments, not constants: recordings of equal structure reuse one
 executable (`EXECUTABLES`). With `progress` each device reports its runs' fractions done
 `PROGRESS_CHUNKS` times (`jax.debug.callback`, the same results)."""
 
@@ -27,7 +29,18 @@ from jax.sharding import PartitionSpec
 
 from ..compiling import LEAN, QUICK
 from ..models.space import Space
-from ..simulation.joint import LENGTH_GRID, JointProblem, StackedJoint, length_buckets, paddable, padded, stack_structure, stacked_target
+from ..simulation.joint import (
+    LENGTH_GRID,
+    JointProblem,
+    SplitJoint,
+    StackedJoint,
+    length_buckets,
+    paddable,
+    padded,
+    split_target,
+    stack_structure,
+    stacked_target,
+)
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
 from .runner import ExecutableCache, fold_keys, mesh_of, padded_size, replicate, shard, to_host
@@ -39,7 +52,7 @@ EXECUTABLES = ExecutableCache(size=6)
 PROGRESS_CHUNKS = 20
 
 
-def fitness(space: Space, target: JointProblem | StackedJoint) -> FitnessFn:
+def fitness(space: Space, target: JointProblem | StackedJoint | SplitJoint) -> FitnessFn:
     """The population OF of unit-cube points: the (joint-weighted) eq. 24/27 of every recording
     (or the fit's loss), with each recording's parameters and adjustments (`JointProblem`)."""
 
@@ -108,11 +121,12 @@ def group_key(setup: Setup) -> tuple:
     return (leaf_signature((setup.target, setup.space)), setup.space.free, repr(setup.integrator))
 
 
-def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool, batched: bool, axis: str):
+def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool, batched: bool, axis: str, split: bool = False):
     """All runs as one function of (keys, target, space, precision, x0, hyperparameters, token,
     member): one setup's (`batched` False) or a stack of setups' (vmapped over the leading axis
     of the target, space, precision, x0 and member index). On several devices each device runs
-    its share along `axis` ("runs" or "recordings")."""
+    its share along `axis` ("runs" or "recordings"); `split`: one run of a joint fit whose
+    recordings (a `SplitJoint`) are split, the search itself repeated on every device."""
 
     def device_runs(keys, target, space, prec, x0, hyper, token, member):
         report = None
@@ -123,11 +137,13 @@ def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool
 
     fn = jax.vmap(device_runs, in_axes=(None, 0, 0, 0, 0, None, None, 0)) if batched else device_runs
     if mesh is not None:
-        rep, split = PartitionSpec(), PartitionSpec(axis)
-        if axis == "runs":
-            specs, out = (split, *[rep] * 7), PartitionSpec(None, "runs") if batched else split
+        rep, part = PartitionSpec(), PartitionSpec(axis)
+        if split:
+            specs, out = (rep, part, *[rep] * 6), rep
+        elif axis == "runs":
+            specs, out = (part, *[rep] * 7), PartitionSpec(None, "runs") if batched else part
         else:
-            specs, out = (rep, split, split, split, split, rep, rep, split), split
+            specs, out = (rep, part, part, part, part, rep, rep, part), part
         fn = jax.shard_map(fn, mesh=mesh, in_specs=specs, out_specs=out, check_vma=False)
     return jax.jit(fn)
 
@@ -169,12 +185,19 @@ def run_group(
     the timing. `report`: called with the fraction done."""
     runs, n = search.runs, len(setups)
     batched = n > 1
-    axis = "recordings" if runs == 1 and batched else "runs"  # one run of many recordings: split the recordings
+    split = not batched and runs == 1 and splits_recordings(targets[0], search)
+    axis = "recordings" if runs == 1 and (batched or split) else "runs"  # one run of many recordings: split the recordings
     devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
     mesh = mesh_of(devices, axis)
-    pad = padded_size(n, devices) - n if axis == "recordings" else 0
+    pad = padded_size(n, devices) - n if batched and axis == "recordings" else 0
+    if split:
+        targets = [split_target(targets[0], len(devices), axis)]
     target, space, prec, z0, member = _group_args(setups, targets, search, pad)
-    if axis == "recordings":
+    if split:
+        keys = replicate(fold_keys(search.seed, runs), mesh)
+        target = jax.tree.map(lambda a: shard(a, mesh, axis), target)
+        space, prec, z0 = (jax.tree.map(lambda a: replicate(a, mesh), b) for b in (space, prec, z0))
+    elif axis == "recordings":
         keys = replicate(fold_keys(search.seed, runs), mesh)
         target, space, prec, z0, member = (jax.tree.map(lambda a: shard(a, mesh, axis), b) for b in (target, space, prec, z0, member))
     else:
@@ -189,11 +212,12 @@ def run_group(
     cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
                  tuple(sorted((options or {}).items())))  # fmt: skip
     t0 = time.perf_counter()
-    build = lambda: _compiled_runs(program, search.memory, mesh, setups[0].space.dim, show, batched, axis)
+    build = lambda: _compiled_runs(program, search.memory, mesh, setups[0].space.dim, show, batched, axis, split)
     compiled, reused = EXECUTABLES.get(cache_key, build, args, options)
     t1 = time.perf_counter()
     if report is not None:
-        _METERS[token] = ProgressMeter(report, (n + pad) * int(keys.shape[0]))
+        reports = len(devices) if split else 1  # split: each device reports every run
+        _METERS[token] = ProgressMeter(report, (n + pad) * int(keys.shape[0]) * reports)
     try:
         outs = jax.block_until_ready(compiled(*args))
         jax.effects_barrier()
@@ -237,6 +261,23 @@ def compiler_options(run_work: float) -> dict | None:
     the number of runs nor a batch changes a run's program (CMA-ES's last bits differ between the
     options)."""
     return QUICK_COMPILE if run_work < COMPILE_FES / 3 else None
+
+
+# One run of a joint fit split over 2 host devices (servo logs of 700 samples, one run of 600 FEs,
+# `python -m experiments.bench_split`): 2 logs (1,400 steps an evaluation) 0.99-1.07x, 8 logs
+# (5,600) 1.15-1.64x, 32-476 logs 1.4-2.4x.
+SPLIT_STEPS = 5_000
+
+
+def splits_recordings(target, search: Search) -> bool:
+    """Whether one run of a joint fit splits its recordings over the devices (`SplitJoint`): a
+    stacked target (`StackedJoint`), several devices, and an evaluation of at least `SPLIT_STEPS`
+    integration steps (recordings x samples x sub-steps), where a share's simulation outweighs
+    the sum over the devices every generation costs (`python -m experiments.bench_split`)."""
+    if not isinstance(target, StackedJoint) or len(jax.devices()) < 2:
+        return False
+    n, samples = target.stacked.y_meas.shape[:2]
+    return n * samples * int(getattr(target.stacked.integrator, "substeps", 1)) >= SPLIT_STEPS
 
 
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:

@@ -302,6 +302,40 @@ class StackedJoint(eqx.Module):
         ofs = jax.vmap(objective, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
         return weighted_in_order(self.weights, ofs)
 
+    def residuals(self, x: Float[Array, " D"]) -> Float[Array, " m"]:
+        """`JointProblem.residuals` from one vmapped call: every recording's residuals scaled by
+        sqrt(its weight), in recording order (a padded recording's extra samples, masked, are
+        zeros: the same sum of squares). One program whatever the number of recordings."""
+        out = jax.vmap(residuals, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
+        return (jnp.sqrt(jnp.asarray(self.weights, out.dtype))[:, None] * out).reshape(-1)
+
+
+class SplitJoint(eqx.Module):
+    """A `StackedJoint` whose recordings are split over devices: inside a `shard_map` over `axis`
+    each device holds its share of the stacked problems (and their weights) and the objective
+    sums its share, then all shares (`psum`): every device gets the same OF, so the search runs
+    the same on each. Padding recordings (to a multiple of the device count) carry weight 0. The
+    OF equals `StackedJoint`'s to rounding (another order of the sum)."""
+
+    stacked: Problem
+    weights: Float[Array, " N"] | np.ndarray  # host arrays until placed on the devices
+    layout: Layout = eqx.field(static=True)
+    axis: str = eqx.field(static=True)
+
+    def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
+        ofs = jax.vmap(objective, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
+        w = self.weights.reshape(self.weights.shape + (1,) * (ofs.ndim - 1))
+        return jax.lax.psum(jnp.sum(jnp.where(w > 0, w * ofs, 0.0), axis=0), self.axis)
+
+
+def split_target(target: StackedJoint, parts: int, axis: str) -> SplitJoint:
+    """`target`'s recordings ready to split into `parts` equal shares along `axis` (the last
+    recording repeated with weight 0 up to a multiple of `parts`); host arrays, to be placed."""
+    n = len(target.weights)
+    pad = -(-n // parts) * parts - n
+    stacked = jax.tree.map(lambda a: np.concatenate([np.asarray(a)] + [np.asarray(a)[-1:]] * pad) if eqx.is_array(a) else a, target.stacked)
+    return SplitJoint(stacked, np.asarray(target.weights + (0.0,) * pad), target.layout, axis)
+
 
 def stacked_target(target: JointProblem) -> "JointProblem | StackedJoint":
     """`target` held stacked (`StackedJoint`) where its recordings, two or more, form one group

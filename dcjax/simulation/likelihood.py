@@ -37,7 +37,7 @@ class NoiseModel(eqx.Module):
         return jnp.sum(self.active * self.loss.log_density(sums, self.count, tau))
 
 
-def _errors(params, problem: Problem, adj) -> Float[Array, "C n"]:
+def channel_errors(params, problem: Problem, adj) -> Float[Array, "C n"]:
     """a = e * norm of every measured channel and sample (e for the default SSE), offsets added."""
     traj = simulate(params, problem, adj)
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
@@ -50,7 +50,7 @@ def _errors(params, problem: Problem, adj) -> Float[Array, "C n"]:
 
 def _channel_rho(params, problem: Problem, adj) -> Float[Array, " C"]:
     """sum_k rho(a_k) per measured channel (padding masked)."""
-    rho = jnp.asarray(problem.loss.rho(_errors(params, problem, adj)))
+    rho = jnp.asarray(problem.loss.rho(channel_errors(params, problem, adj)))
     return jnp.sum(rho if problem.mask is None else problem.mask * rho, axis=-1)
 
 
@@ -80,5 +80,5 @@ def whitened_residuals(x, target: JointProblem, noise: NoiseModel) -> Float[Arra
     for a channel not in the likelihood): J^T J of their Jacobian is the Fisher information
     matrix of x. Evaluated by groups, as the objective (`JointProblem.each`)."""
     root = jnp.sqrt(noise.information)
-    rows = target.each(x, _errors)
+    rows = target.each(x, channel_errors)
     return jnp.concatenate([(root[r][:, None] * a[:, : p.n]).reshape(-1) for r, (a, p) in enumerate(zip(rows, target.problems))])

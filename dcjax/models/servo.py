@@ -75,7 +75,8 @@ class Servo(DiscreteModel):
         q, dq = y
         goal, kp, vin, m, length, arm = u
         volts = vin * jnp.clip(kp * self.error_gain * (goal - q), -self.max_pwm, self.max_pwm)
-        motor = c["kt"] * volts / c["R"] - c["kt"] ** 2 * dq / c["R"]
+        per_volt = c["kt"] / c["R"]  # a coefficient, not a division of every sample (4 -> 2 divisions a step)
+        motor = per_volt * volts - per_volt * c["kt"] * dq
         gravity = -(m + arm / 2.0) * GRAVITY * length * jnp.sin(q)
         inertia = (m + arm / 3.0) * length**2 + c["armature"]
         stop = inertia / dt * dq + motor + gravity

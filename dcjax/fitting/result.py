@@ -195,8 +195,9 @@ class FitResult:
         loss = self.observation.loss
         sse = get_loss("sse", loss.normalize)
         own = self.target()
-        target = own if loss.least_squares else self.target(loss=sse)  # J (null directions) and the profile's OF
-        u = uncertainty(x, self.target(loss=sse) if loss.least_squares else target, space, robust=None if loss == sse else own)
+        squared = own if loss == sse else self.target(loss=sse)  # its J finds the null directions
+        u = uncertainty(x, squared, space, robust=None if loss == sse else own)  # another loss: its sandwich
+        target = own if loss.least_squares else squared  # the profile's OF
         u.approximation = self.observation.loss.approximation
         if profile is not None:
             if profile not in self.names:

@@ -13,8 +13,8 @@ setups of equal structure (`run_setups`). One fit, a joint fit and a batch of re
 
 Run r is keyed by `fold_in(PRNGKey(seed), r)` for every recording alike, so a recording gets
 the same result in a batch as alone, and a run does not depend on how many others are made or
-on the device count (but for a split joint fit's, whose OF is summed in another order). Data are arguments, not constants: recordings of equal structure reuse one
-executable (`EXECUTABLES`). With `progress` each device reports its runs' fractions done
+on the device count (but for a split joint fit's, whose OF is summed in another order). Data are
+arguments, not constants: recordings of equal structure reuse one executable (`EXECUTABLES`). With `progress` each device reports its runs' fractions done
 `PROGRESS_CHUNKS` times (`jax.debug.callback`, the same results)."""
 
 import dataclasses
@@ -185,7 +185,7 @@ def run_group(
     the timing. `report`: called with the fraction done."""
     runs, n = search.runs, len(setups)
     batched = n > 1
-    split = not batched and runs == 1 and splits_recordings(targets[0], search)
+    split = not batched and runs == 1 and splits_recordings(targets[0])
     axis = "recordings" if runs == 1 and (batched or split) else "runs"  # one run of many recordings: split the recordings
     devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
     mesh = mesh_of(devices, axis)
@@ -269,7 +269,7 @@ def compiler_options(run_work: float) -> dict | None:
 SPLIT_STEPS = 5_000
 
 
-def splits_recordings(target, search: Search) -> bool:
+def splits_recordings(target) -> bool:
     """Whether one run of a joint fit splits its recordings over the devices (`SplitJoint`): a
     stacked target (`StackedJoint`), several devices, and an evaluation of at least `SPLIT_STEPS`
     integration steps (recordings x samples x sub-steps), where a share's simulation outweighs

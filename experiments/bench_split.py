@@ -16,25 +16,17 @@ import argparse
 import os
 import platform
 
-import numpy as np
-
 import dcjax
 import dcjax.fitting.runs as runs_module
-from experiments.bench_servo_fleet import BOX, DT, SAMPLES, logs
+from experiments.bench_servo_fleet import SAMPLES, dcjax_fit, logs
 
 dcjax.use_host_devices()  # as the CLI starts: one device per core
 dcjax.use_compiled_loops()
 
 
 def fit(goal, const, q, method: str, budget: int, split: bool):
-    t = DT * np.arange(SAMPLES)
-    names = ("kp", "vin", "m", "l", "m_a")
-    recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(names, map(float, const[i]))),
-                            name=f"log{i}") for i in range(len(q))]  # fmt: skip
-    box = dcjax.Parameters([dcjax.Parameter(k, min=lo, max=hi) for k, (lo, hi) in BOX.items()])
-    obs = dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})
     runs_module.SPLIT_STEPS = 0 if split else 1 << 62
-    res = dcjax.fit(recs, "servo", box, method, observation=obs, runs=1, budget=budget, seed=0)
+    res, _ = dcjax_fit(goal, const, q, method, 1, budget, 0)
     return res.timing["run_s"], res.timing["devices"], res.of
 
 

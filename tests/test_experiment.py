@@ -273,10 +273,7 @@ def test_one_run_of_a_large_joint_fit_splits_its_recordings_over_two_devices():
     """With 2 XLA CPU devices one run of a stacked joint fit above `SPLIT_STEPS` splits its
     recordings (`SplitJoint`; 5 recordings: one padding copy of weight 0): the same search as on
     one device to rounding (the OF's sum in another order), the same bits again with the same seed."""
-    import json
-    import os
-    import subprocess
-    import sys
+    from devices import on_devices
 
     code = (
         "import json, dcjax, dcjax.fitting.runs as R; from dcjax import datasets;"
@@ -287,10 +284,7 @@ def test_one_run_of_a_large_joint_fit_splits_its_recordings_over_two_devices():
         "print(json.dumps({'devices': [a.timing['devices'], b.timing['devices']], 'of': [a.of, again.of, b.of],"
         "'x': [list(a.best_values.values()), list(again.best_values.values()), list(b.best_values.values())]}))"
     )
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    assert p.returncode == 0, p.stderr[-3000:]
-    out = json.loads(p.stdout.strip().splitlines()[-1])
+    out = on_devices(code, 2)
     assert out["devices"] == [2, 1], out
     assert out["of"][0] == out["of"][1] and out["x"][0] == out["x"][1], out  # same seed, same bits
     np.testing.assert_allclose(out["of"][0], out["of"][2], rtol=1e-6)

@@ -199,10 +199,7 @@ def test_chains_split_over_two_devices():
     same bits again, and the same bits as the 4 on one device (on a CPU a device's chains run one
     after another, each the same program however many share the device; vmapped side by side, a
     batch of 2 compiled to other last bits than one of 4: 1e-7 relative after 40 draws)."""
-    import json
-    import os
-    import subprocess
-    import sys
+    from devices import on_devices
 
     code = (
         "import json, numpy as np, dcjax; from dcjax import datasets; from dcjax.analysis import posterior as P;"
@@ -215,8 +212,5 @@ def test_chains_split_over_two_devices():
         "b = r.sample(draws=40, chains=4, warmup=40, seed=3); d = np.abs(a.draws - b.draws) / np.abs(b.draws).max(axis=(0, 1));"
         "print(json.dumps({'devices': m.devices.size, 'again': bool(np.array_equal(a.draws, again.draws)), 'off': float(d.max())}))"
     )
-    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
-    assert p.returncode == 0, p.stderr[-3000:]
-    out = json.loads(p.stdout.strip().splitlines()[-1])
+    out = on_devices(code, 2)
     assert out["devices"] == 2 and out["again"] and out["off"] == 0.0, out

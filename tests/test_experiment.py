@@ -223,6 +223,25 @@ def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(
     assert stacked_target(mixed) is mixed  # two groups: left as it is
 
 
+def test_split_shares_sum_to_the_stacked_objective(sd1, truth):
+    """`split_target` into 3 shares of 5 recordings (one padding copy of weight 0), each share's
+    objective summed by `psum` over a named axis (here a vmap's; a mesh's `shard_map` in the
+    runs): the stacked joint OF to rounding, for a population too."""
+    import jax
+
+    from dcjax.simulation.joint import joint_problem, split_target, stacked_target
+
+    probs = [dcjax.make_problem(_generated(sd1, dict(truth, Tla=0.004 * (k + 1)), f"r{k}")) for k in range(5)]
+    held = stacked_target(joint_problem(probs, [0.1, 0.3, 0.2, 0.25, 0.15]))
+    split = split_target(held, 3, "parts")
+    assert list(split.weights) == [0.1, 0.3, 0.2, 0.25, 0.15, 0.0]
+    shares = jax.tree.map(lambda a: a.reshape(3, -1, *a.shape[1:]), split)
+    x = jnp.asarray([[truth[n] * (1 + 0.01 * k) for n in M.names] for k in range(4)])
+    per_share = jax.vmap(lambda t: t.objective(x), axis_name="parts")(shares)
+    np.testing.assert_allclose(per_share[0], held.objective(x), rtol=1e-13)
+    np.testing.assert_array_equal(per_share[0], per_share[2])  # every share holds the whole sum
+
+
 def test_mixed_lengths_are_grouped_and_summed_in_order(sd1, truth):
     from dcjax.simulation.joint import joint_problem
 

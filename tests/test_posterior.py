@@ -130,6 +130,29 @@ def noisy_sd1():
     return dcjax.Recording(t=sd1.t, u_a=sd1["u_a"], i_a=y[:, 0], omega=y[:, 1], name="SD1-noisy")
 
 
+@pytest.mark.parametrize("loss", ["sse", "l1", "huber:0.01"])
+def test_the_likelihood_through_the_objective_is_the_channel_sums_one(noisy_sd1, loss):
+    """`likelihood_target` (the sampler's log likelihood through the search's fused objective)
+    against `NoiseModel.log_likelihood` of the channel sums over the stored trajectory: a joint
+    target of a recording and its shortened copy (one padded group), each loss, three points."""
+    from dcjax.simulation.joint import joint_problem
+    from dcjax.simulation.likelihood import channel_sums, fit_noise, likelihood_target
+    from dcjax.simulation.losses import get_loss
+
+    truth = datasets.true_params("SD1")
+    x = jnp.asarray([truth[n] for n in dcjax.DC().names])
+    short = noisy_sd1.replace(t=noisy_sd1.t[:480], channels={c: v[:480] for c, v in noisy_sd1.channels.items()}, name="short")
+    target = joint_problem([dcjax.make_problem(r, loss=loss) for r in (noisy_sd1, short)], [0.7, 0.3])
+    assert target.groups() == [(0, 1)]
+    noise = fit_noise(x, target, get_loss(loss))
+    likelihood = likelihood_target(target, noise)
+    for k in range(3):
+        xk = x * (1 + 0.002 * k)
+        want = float(noise.log_likelihood(channel_sums(xk, target)))
+        got = float(noise.log_likelihood(jnp.zeros_like(noise.scale)) - likelihood.objective(xk))
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-9), (k, got, want)
+
+
 @pytest.mark.slow
 def test_sample_sd1_with_one_percent_noise_converges(noisy_sd1, tmp_path):
     """All seven parameters (Tlb and Tlc against their bound 0) and the two initial states, which

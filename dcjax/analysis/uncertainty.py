@@ -23,6 +23,7 @@ from ..models.bounds import Bounds
 from ..models.space import Space, make_space
 from ..simulation.joint import JointProblem, joint_problem
 from ..simulation.problem import Problem
+from .sandwich import sandwich
 
 WELL, WEAK, NOT, FIXED = "well determined", "weakly determined", "not identifiable from this recording", "fixed (known)"
 
@@ -233,8 +234,6 @@ def uncertainty(
 def _sandwich_z(x, robust: JointProblem, fidx, width, basis, fallback):
     """H^-1 V H^-1 in bound-scaled coordinates, within the span of `basis` (J's determined
     directions); `fallback` where the loss leaves no density to estimate (all errors 0)."""
-    from .sandwich import sandwich
-
     hess, var = sandwich(x, robust, fidx)
     hz, vz = hess * np.outer(width, width), var * np.outer(width, width)
     h_r, v_r = basis @ hz @ basis.T, basis @ vz @ basis.T

@@ -286,6 +286,12 @@ class JointProblem(eqx.Module):
         return simulate(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
 
 
+def over_stack(fn, layout: Layout, stacked: Problem, x):
+    """`fn(params, problem, None)` (the objective or the residuals) of every recording of a stack
+    of problems with shared parameters, from one vmapped call: (recordings, ...)."""
+    return jax.vmap(fn, in_axes=(None, 0, None))(layout.model_x(x, 0), stacked, None)
+
+
 class StackedJoint(eqx.Module):
     """A `JointProblem` whose recordings form one stacked group, held stacked (`stacked_target`):
     the problems' leaves carry a leading recordings axis, so a compiled objective takes one set
@@ -299,14 +305,14 @@ class StackedJoint(eqx.Module):
     layout: Layout = eqx.field(static=True)
 
     def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
-        ofs = jax.vmap(objective, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
+        ofs = over_stack(objective, self.layout, self.stacked, x)
         return weighted_in_order(self.weights, ofs)
 
     def residuals(self, x: Float[Array, " D"]) -> Float[Array, " m"]:
         """`JointProblem.residuals` from one vmapped call: every recording's residuals scaled by
         sqrt(its weight), in recording order (a padded recording's extra samples, masked, are
         zeros: the same sum of squares). One program whatever the number of recordings."""
-        out = jax.vmap(residuals, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
+        out = over_stack(residuals, self.layout, self.stacked, x)
         return (jnp.sqrt(jnp.asarray(self.weights, out.dtype))[:, None] * out).reshape(-1)
 
 
@@ -323,7 +329,7 @@ class SplitJoint(eqx.Module):
     axis: str = eqx.field(static=True)
 
     def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
-        ofs = jax.vmap(objective, in_axes=(None, 0, None))(self.layout.model_x(x, 0), self.stacked, None)
+        ofs = over_stack(objective, self.layout, self.stacked, x)
         w = self.weights.reshape(self.weights.shape + (1,) * (ofs.ndim - 1))
         return jax.lax.psum(jnp.sum(jnp.where(w > 0, w * ofs, 0.0), axis=0), self.axis)
 

@@ -19,7 +19,7 @@ is to its first trial within `--tol` of its best; dcjax's the whole fit (setup, 
 search); the speed-up their ratio. Peak memory: the
 process's (both tools; `ru_maxrss`).
 
-    /work/peers/bin/python -m experiments.bench_servo_fleet [--trials 5000] [--logs 476]
+    /work/peers/bin/python -m experiments.bench_servo_fleet [--trials 5000] [--logs 476] [--cache DIR]
 
 (needs optuna and cmaes: a benchmark venv beside dcjax; `/work/peers` here.)"""
 
@@ -121,6 +121,9 @@ def main():
     ap.add_argument("--trials", type=int, default=5000)
     ap.add_argument("--tol", type=float, default=1e-3, help="relative: a fit within this of the peer's best OF reaches it")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--cache", metavar="DIR", help="dcjax with the persistent compilation cache in DIR, as the CLI (a second run finds its programs)"
+    )
     ap.add_argument("--dcjax", nargs="+", default=["cma-es:1:1000", "cma-es:1:2000", "cma-es:1:5000", "cma-es:4:5000", "de-rand-1-exp:4:20000"],
                     metavar="METHOD:RUNS:BUDGET")  # fmt: skip
     args = ap.parse_args()
@@ -128,6 +131,8 @@ def main():
 
     dcjax.use_host_devices()  # as the CLI starts
     dcjax.use_compiled_loops()
+    if args.cache:
+        dcjax.use_compilation_cache(args.cache, min_compile_seconds=0.0)
     goal, const, q = logs(args.logs, args.seed)
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores; {args.logs} logs x {SAMPLES} samples, 8 setups; "
           f"the truth scores {objective(TRUTH, goal, const, q):.6g} (encoder rounding)", flush=True)  # fmt: skip

@@ -12,6 +12,7 @@ from .base import DiscreteModel, Model
 from .dc import DC, DCCoulomb
 from .pmsm import PMSM
 from .servo import Servo
+from .trig import cos, sin
 
 MODELS: dict[str, type[Model]] = {"dc": DC, "dc-coulomb": DCCoulomb, "pmsm": PMSM, "servo": Servo}
 
@@ -91,4 +92,4 @@ def model_spec(model: Model) -> str:
     return f"{module}:{cls.__qualname__}"
 
 
-__all__ = ["DC", "DCCoulomb", "MODELS", "PMSM", "DiscreteModel", "Model", "Servo", "get_model", "model_spec"]
+__all__ = ["DC", "DCCoulomb", "MODELS", "PMSM", "DiscreteModel", "Model", "Servo", "cos", "get_model", "model_spec", "sin"]

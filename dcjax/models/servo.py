@@ -28,6 +28,7 @@ import jax.numpy as jnp
 
 from .base import DiscreteModel
 from .parameters import Parameter, Parameters
+from .trig import sin
 
 NAMES = ("kt", "R", "armature", "friction_base", "friction_viscous")
 GRAVITY = 9.80665  # m/s^2
@@ -77,7 +78,7 @@ class Servo(DiscreteModel):
         volts = vin * jnp.clip(kp * self.error_gain * (goal - q), -self.max_pwm, self.max_pwm)
         per_volt = c["kt"] / c["R"]  # a coefficient, not a division of every sample (4 -> 2 divisions a step)
         motor = per_volt * volts - per_volt * c["kt"] * dq
-        gravity = -(m + arm / 2.0) * GRAVITY * length * jnp.sin(q)
+        gravity = -(m + arm / 2.0) * GRAVITY * length * sin(q)  # vectorises on the CPU (`trig`)
         inertia = (m + arm / 3.0) * length**2 + c["armature"]
         stop = inertia / dt * dq + motor + gravity
         friction = -jnp.sign(stop) * jnp.minimum(jnp.abs(stop), c["friction_base"] + c["friction_viscous"] * jnp.abs(dq))

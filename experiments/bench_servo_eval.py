@@ -1,0 +1,112 @@
+"""One evaluation of the 476 servo logs of `bench_servo_fleet` against the machine's float64 peak
+(issue: speed at scale, item 1): the population objective of CMA-ES's 12 members on one device,
+with the built-in `Servo` (its sine `dcjax.models.trig.sin`, arithmetic only) and with the same
+map calling `jnp.sin` (XLA:CPU: a call of the C library's `sin` per element), each compiled with
+XLA's defaults and with `QUICK | LEAN` (a short search's), in ns a member's sample step; the peak from a measured FMA loop (one device, 32 independent FMAs an element and
+iteration over 4,096 elements in cache) and the flops of one step (the arithmetic equations of
+the map's jaxpr plus the loss's).
+
+    python -m experiments.bench_servo_eval [--logs 476] [--repeat 20]
+"""
+
+import argparse
+import itertools
+import os
+import platform
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import dcjax
+import dcjax.models.servo as servo_module
+from dcjax.compiling import filter_jit
+from dcjax.fitting.runs import QUICK_COMPILE
+from dcjax.fitting.setup import plan
+from dcjax.simulation.joint import stacked_target
+
+from .bench_servo_fleet import BOX, DT, SAMPLES, logs
+
+ARITHMETIC = {"add", "sub", "mul", "div", "neg", "abs", "sign", "min", "max", "round", "floor", "select_n", "eq", "sin", "integer_pow"}
+
+
+def median_seconds(fn, x, repeat: int) -> float:
+    jax.block_until_ready(fn(x))
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn(x))
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times))
+
+
+def fma_peak(repeat: int) -> float:
+    """FP64 flop/s of one device on 32 chained FMAs an element (4,096 elements, 2,000 iterations)."""
+
+    def body(_, a):
+        for _ in range(32):
+            a = a * 0.999999 + 1e-7
+        return a
+
+    f = jax.jit(lambda a: jax.lax.fori_loop(0, 2000, body, a))
+    return 2 * 32 * 4096 * 2000 / median_seconds(f, jnp.ones(4096), repeat)
+
+
+def step_flops(model) -> int:
+    """Arithmetic equations of one step of `model`'s map on scalars (its sine as `jnp.sin`: one)."""
+    c = dict.fromkeys(model.names, 1.0)
+    jaxpr = jax.make_jaxpr(lambda y, u: model.update(c, u, y, DT))((0.1, 0.0), (0.2, 32.0, 15.0, 0.5, 0.1, 0.05))
+
+    def count(jx) -> int:
+        n = 0
+        for eqn in jx.eqns:
+            n += eqn.primitive.name in ARITHMETIC
+            for v in eqn.params.values():
+                n += count(getattr(v, "jaxpr", v)) if hasattr(v, "eqns") or hasattr(v, "jaxpr") else 0
+        return n
+
+    return count(jaxpr.jaxpr) + 3  # the l1 misfit: a subtraction, a scale and an accumulation
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--logs", type=int, default=476)
+    ap.add_argument("--repeat", type=int, default=20)
+    args = ap.parse_args()
+    dcjax.use_compiled_loops()
+    goal, const, q = logs(args.logs)
+    t = DT * np.arange(SAMPLES)
+    names = ("kp", "vin", "m", "l", "m_a")
+    recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(names, map(float, const[i]))), name=f"log{i}")
+            for i in range(len(q))]  # fmt: skip
+    obs = dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})
+    box = dcjax.Parameters([dcjax.Parameter(k, min=lo, max=hi) for k, (lo, hi) in BOX.items()])
+    lo, hi = np.array([v[0] for v in BOX.values()]), np.array([v[1] for v in BOX.values()])
+    x = jnp.asarray(lo + (hi - lo) * np.random.default_rng(0).uniform(0.2, 0.8, (12, len(BOX))))
+    peak = fma_peak(args.repeat)
+    ours = servo_module.sin
+    servo_module.sin = jnp.sin
+    flops = step_flops(dcjax.Servo())
+    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, one XLA device; {args.logs} logs x {SAMPLES} samples, "
+          f"12 members: {args.logs * SAMPLES * 12:,} member-steps an evaluation")  # fmt: skip
+    print(f"FP64 peak (FMA loop, one device): {peak / 1e9:.1f} GFLOP/s; a step of the map and loss: {flops} flops = "
+          f"{1e9 * flops / peak:.2f} ns at the peak")  # fmt: skip
+    try:
+        for (label, sine), (level, options) in itertools.product(
+            (("dcjax.models.trig.sin", ours), ("jnp.sin (libm)", jnp.sin)), (("XLA's defaults", {}), ("QUICK | LEAN", QUICK_COMPILE))
+        ):
+            servo_module.sin = sine
+            setup = plan("servo", "cma-es", observation=obs).setup(recs, box)
+            target = jax.tree.map(jnp.asarray, stacked_target(setup.target))
+            f = filter_jit(lambda tg, x: tg.objective(x), options=options)
+            s = median_seconds(lambda x, f=f, tg=target: f(tg, x), x, args.repeat)
+            ns = 1e9 * s / (12 * args.logs * SAMPLES)
+            print(f"{label:<22} {level:<15} {1e3 * s:7.2f} ms an evaluation of 12 members, {ns:5.2f} ns a member-step = "
+                  f"{ns / (1e9 * flops / peak):4.1f}x the peak's", flush=True)  # fmt: skip
+    finally:
+        servo_module.sin = ours
+
+
+if __name__ == "__main__":
+    main()

@@ -168,6 +168,7 @@ def _add_design_parser(sub) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from ..fitting.defaults import MANY_SEARCH, MANY_STEPS, PAPER_SEARCH
     from ..models import MODELS
     from ..simulation.integrators import INTEGRATORS
     from ..strategies import METHODS
@@ -188,7 +189,8 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument(
         "--model", default="dc", help=f"{', '.join(MODELS)} (built in; dc the default), package.module:attr or path/to/file.py:Name"
     )
-    f.add_argument("--method", default="de-rand-1-exp", help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...)")
+    f.add_argument("--method", default=None, help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...); default "
+                   f"{PAPER_SEARCH.method}, and {MANY_SEARCH.method} for a joint fit of >= {MANY_STEPS:,} samples (many recordings)")  # fmt: skip
     f.add_argument(
         "--integrator",
         default=None,
@@ -196,8 +198,11 @@ def _parser() -> argparse.ArgumentParser:
         help="default rk4; diffrax: adaptive, for a stiff model (a discrete-time model takes none)",
     )
     f.add_argument("--nd", default="1", help="sub-steps per sample interval (eq. 28), or 'auto'")
-    f.add_argument("--runs", type=int, default=50)
-    f.add_argument("--budget", type=int, default=140_000, help="fitness evaluations per run")
+    f.add_argument(
+        "--runs", type=int, default=None, help=f"default {PAPER_SEARCH.runs}; {MANY_SEARCH.runs} for a joint fit of many recordings"
+    )
+    f.add_argument("--budget", type=int, default=None, help=f"fitness evaluations per run; default {PAPER_SEARCH.budget:,}, "
+                   f"{MANY_SEARCH.budget:,} for a joint fit of many recordings")  # fmt: skip
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--weights", default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)")
     f.add_argument(

@@ -88,14 +88,14 @@ def _observed(name: str) -> bool:
 
 
 def _options(args, model) -> dict:
-    """The `dcjax.fit` options every file of this command shares (the parameters are per file):
-    the strategy (with --generations), the integrator, the memory and the `Observation`, built once."""
+    """The `dcjax.fit` options every file of this command shares (the parameters are per file; the
+    search, `_search`, once the recordings are read): the integrator, the memory and the
+    `Observation`, built once."""
 
     from ..fitting.observation import Observation
     from ..models import DiscreteModel
     from ..simulation.integrators import INTEGRATORS, AutoSubsteps
     from ..simulation.losses import get_loss
-    from ..strategies import make_strategy
     from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
@@ -113,15 +113,32 @@ def _options(args, model) -> dict:
                          f"{', '.join(model.states)}")  # fmt: skip
     if args.local is not None and (args.each or len(args.data) < 2):
         raise ValueError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
-    strategy = make_strategy(args.method)
-    if args.generations is not None:
-        strategy = dataclasses.replace(strategy, generations=args.generations)
     observation = Observation(get_loss(args.loss or "sse", args.normalize), parse_mapping(args.initial, "--initial"),
                               _names(args.offset, "--offset"), _names(args.delay, "--delay"),
                               None if args.measure is None else _names(args.measure, "--measure"),
                               parse_mapping(args.hold, "--hold"))  # fmt: skip
-    return dict(method=strategy, integrator=integrator, runs=args.runs, budget=args.budget, seed=args.seed,
-                memory=None if args.memory is None else MEMORIES[args.memory], polish=args.polish, observation=observation)  # fmt: skip
+    return dict(integrator=integrator, seed=args.seed, memory=None if args.memory is None else MEMORIES[args.memory], polish=args.polish,
+                observation=observation)  # fmt: skip
+
+
+def _search(args, recs=()) -> dict:
+    """`fit`'s method (a strategy, with --generations), runs and budget: as given, else the
+    defaults for a fit of `recs` (`dcjax.fitting.defaults.search_defaults`: a joint fit of many
+    recordings searches shorter; `--each` and one recording: the paper's). The namespace gets the
+    values, so the command's report shows them."""
+    from ..fitting.defaults import search_defaults
+    from ..strategies import make_strategy
+
+    nd = _nd(args.nd)
+    steps = sum(len(r.t) for r in recs) * (nd if isinstance(nd, int) else 1) if len(recs) > 1 else 0
+    chosen = search_defaults(steps)
+    args.method = chosen.method if args.method is None else args.method
+    args.runs = chosen.runs if args.runs is None else args.runs
+    args.budget = chosen.budget if args.budget is None else args.budget
+    strategy = make_strategy(args.method)
+    if args.generations is not None:
+        strategy = dataclasses.replace(strategy, generations=args.generations)
+    return dict(method=strategy, runs=args.runs, budget=args.budget)
 
 
 def _precision(args, model) -> dict[str, float]:
@@ -308,10 +325,11 @@ def fit(args) -> int:
     options = _options(args, model)
     model = options["observation"].check(model).observed(model)  # --measure: the compared states
     if args.each:
-        return fit_each_cmd(args, model, options)
+        return fit_each_cmd(args, model, options | _search(args))
     if args.plots not in (None, "none"):
         raise ValueError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
     recs = [_load(d, args, model) for d in args.data]
+    options |= _search(args, recs)
     result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
     out = Path(args.out)
     _save(result, out, plot=args.plots is None)

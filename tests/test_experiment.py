@@ -288,23 +288,30 @@ def test_local_offsets_and_the_search_vector_layout(sd1):
 
 
 @pytest.mark.slow
-def test_one_run_of_a_large_joint_fit_splits_its_recordings_over_two_devices():
-    """With 2 XLA CPU devices one run of a stacked joint fit above `SPLIT_STEPS` splits its
-    recordings (`SplitJoint`; 5 recordings: one padding copy of weight 0): the same search as on
-    one device to rounding (the OF's sum in another order), the same bits again with the same seed."""
+def test_a_large_joint_fit_splits_each_runs_recordings_over_its_devices():
+    """With 4 XLA CPU devices a stacked joint fit above `SPLIT_STEPS` gives each run the devices
+    it can (`recording_shards`): one run splits its 5 recordings over 4 (`SplitJoint`, 3 padding
+    copies of weight 0), two runs over 2 each (a mesh of runs x recordings); the same search as
+    unsplit to rounding (the OF's sum in another order), the same bits again with the same seed,
+    and the progress of every run reaches 1."""
     from devices import on_devices
 
     code = (
-        "import json, dcjax, dcjax.fitting.runs as R; from dcjax import datasets;"
+        "import json, numpy as np, dcjax, dcjax.fitting.runs as R; from dcjax import datasets;"
         "recs = [datasets.load(n) for n in ('SD1', 'SD2', 'SD3', 'SD4')];"
         "recs.append(recs[0].replace(name='SD1-again', channels={c: 1.01 * v for c, v in recs[0].channels.items()}));"
-        "fit = lambda: dcjax.fit(recs, params='table4', method='cma-es', runs=1, budget=1200, seed=2);"
-        "R.SPLIT_STEPS = 0; a, again = fit(), fit(); R.SPLIT_STEPS = 1 << 62; b = fit();"
-        "print(json.dumps({'devices': [a.timing['devices'], b.timing['devices']], 'of': [a.of, again.of, b.of],"
-        "'x': [list(a.best_values.values()), list(again.best_values.values()), list(b.best_values.values())]}))"
+        "seen = [0.0];"
+        "fit = lambda runs, **kw: dcjax.fit(recs, params='table4', method='cma-es', runs=runs, budget=1200, seed=2, **kw);"
+        "R.SPLIT_STEPS = 0; a, again, c = fit(1), fit(1), fit(2, progress=seen.append); R.SPLIT_STEPS = 1 << 62; b, d = fit(1), fit(2);"
+        "out = lambda r: [list(map(float, r.run_of)), np.asarray(r.run_params).tolist()];"
+        "print(json.dumps({'devices': [r.timing['devices'] for r in (a, c, b, d)], 'runs': [out(r) for r in (a, again, b, c, d)],"
+        "'progress': max(seen)}))"
     )
-    out = on_devices(code, 2)
-    assert out["devices"] == [2, 1], out
-    assert out["of"][0] == out["of"][1] and out["x"][0] == out["x"][1], out  # same seed, same bits
-    np.testing.assert_allclose(out["of"][0], out["of"][2], rtol=1e-6)
-    np.testing.assert_allclose(out["x"][0], out["x"][2], rtol=1e-4)
+    res = on_devices(code, 4)
+    assert res["devices"] == [4, 4, 1, 4], res
+    a, again, b, c, d = res["runs"]
+    assert a == again, res  # same seed, same bits
+    for split, whole in ((a, b), (c, d)):
+        np.testing.assert_allclose(split[0], whole[0], rtol=1e-6)
+        np.testing.assert_allclose(split[1], whole[1], rtol=1e-4)
+    assert res["progress"] == pytest.approx(1.0)

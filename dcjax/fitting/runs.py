@@ -8,8 +8,9 @@ setups of equal structure (`run_setups`). One fit, a joint fit and a batch of re
   parameters, layout) is stacked into one batched target and space (each recording keeps its
   own bounds, start values and precisions) and `vmap`ped over the recordings; several runs are
   split over the devices along the runs, one run of many recordings along the recordings;
-- one run of a joint fit of many samples (`splits_recordings`) splits its stacked recordings over
-  the devices (`SplitJoint`), the search repeated on each.
+- a joint fit of many samples with fewer runs than devices (`recording_shards`) gives each run
+  several devices: its stacked recordings split over them (`SplitJoint`, a mesh of runs x
+  recordings), its search repeated on each.
 
 Run r is keyed by `fold_in(PRNGKey(seed), r)` for every recording alike, so a recording gets
 the same result in a batch as alone, and a run does not depend on how many others are made or
@@ -25,7 +26,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.sharding import PartitionSpec
+from jax.sharding import Mesh, PartitionSpec
 
 from ..compiling import LEAN, QUICK
 from ..models.space import Space
@@ -125,13 +126,14 @@ def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool
     """All runs as one function of (keys, target, space, precision, x0, hyperparameters, token,
     member): one setup's (`batched` False) or a stack of setups' (vmapped over the leading axis
     of the target, space, precision, x0 and member index). On several devices each device runs
-    its share along `axis` ("runs" or "recordings"); `split`: one run of a joint fit whose
-    recordings (a `SplitJoint`) are split, the search itself repeated on every device."""
+    its share along `axis` ("runs" or "recordings"); `split`: a joint fit on a mesh of runs x
+    recordings, each run's recordings (a `SplitJoint`) split over its row of devices, the
+    run's search repeated on each."""
 
     def device_runs(keys, target, space, prec, x0, hyper, token, member):
         report = None
         if progress:
-            device = jax.lax.axis_index(axis) if mesh is not None else 0
+            device = jax.lax.axis_index(("runs", axis) if split else axis) if mesh is not None else 0
             report = lambda done: jax.debug.callback(_report, token, device, member, done)
         return program.run(hyper, keys, fitness(space, target), dim, memory, prec, x0, report, PROGRESS_CHUNKS)
 
@@ -139,7 +141,7 @@ def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool
     if mesh is not None:
         rep, part = PartitionSpec(), PartitionSpec(axis)
         if split:
-            specs, out = (rep, part, *[rep] * 6), rep
+            specs, out = (PartitionSpec("runs"), part, *[rep] * 6), PartitionSpec("runs")
         elif axis == "runs":
             specs, out = (part, *[rep] * 7), PartitionSpec(None, "runs") if batched else part
         else:
@@ -185,16 +187,17 @@ def run_group(
     the timing. `report`: called with the fraction done."""
     runs, n = search.runs, len(setups)
     batched = n > 1
-    split = not batched and runs == 1 and splits_recordings(targets[0])
-    axis = "recordings" if runs == 1 and (batched or split) else "runs"  # one run of many recordings: split the recordings
-    devices = jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
-    mesh = mesh_of(devices, axis)
+    shards = 1 if batched else recording_shards(targets[0], runs)
+    split = shards > 1
+    axis = "recordings" if runs == 1 and batched or split else "runs"  # one run of many recordings: split the recordings
+    devices = jax.devices()[: runs * shards] if split else jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
+    mesh = Mesh(np.array(devices).reshape(runs, shards), ("runs", axis)) if split else mesh_of(devices, axis)
     pad = padded_size(n, devices) - n if batched and axis == "recordings" else 0
     if split:
-        targets = [split_target(targets[0], len(devices), axis)]
+        targets = [split_target(targets[0], shards, axis)]
     target, space, prec, z0, member = _group_args(setups, targets, search, pad)
     if split:
-        keys = replicate(fold_keys(search.seed, runs), mesh)
+        keys = shard(fold_keys(search.seed, runs), mesh, "runs")
         target = jax.tree.map(lambda a: shard(a, mesh, axis), target)
         space, prec, z0 = (jax.tree.map(lambda a: replicate(a, mesh), b) for b in (space, prec, z0))
     elif axis == "recordings":
@@ -216,7 +219,7 @@ def run_group(
     compiled, reused = EXECUTABLES.get(cache_key, build, args, options)
     t1 = time.perf_counter()
     if report is not None:
-        reports = len(devices) if split else 1  # split: each device reports every run
+        reports = shards  # split: every device of a run's row reports it
         _METERS[token] = ProgressMeter(report, (n + pad) * int(keys.shape[0]) * reports)
     try:
         outs = jax.block_until_ready(compiled(*args))
@@ -269,15 +272,18 @@ def compiler_options(run_work: float) -> dict | None:
 SPLIT_STEPS = 5_000
 
 
-def splits_recordings(target) -> bool:
-    """Whether one run of a joint fit splits its recordings over the devices (`SplitJoint`): a
-    stacked target (`StackedJoint`), several devices, and an evaluation of at least `SPLIT_STEPS`
+def recording_shards(target, runs: int) -> int:
+    """Over how many devices each of `runs` runs of a joint fit splits its recordings
+    (`SplitJoint`): the devices a run gets, `len(jax.devices()) // runs`, where that is at least 2,
+    the target is stacked (`StackedJoint`) and an evaluation is at least `SPLIT_STEPS`
     integration steps (recordings x samples x sub-steps), where a share's simulation outweighs
-    the sum over the devices every generation costs (`python -m experiments.bench_split`)."""
-    if not isinstance(target, StackedJoint) or len(jax.devices()) < 2:
-        return False
+    the sum over the devices every generation costs (`python -m experiments.bench_split`); else 1
+    (the runs split over the devices as they are)."""
+    shards = len(jax.devices()) // runs
+    if not isinstance(target, StackedJoint) or shards < 2:
+        return 1
     n, samples = target.stacked.y_meas.shape[:2]
-    return n * samples * int(getattr(target.stacked.integrator, "substeps", 1)) >= SPLIT_STEPS
+    return shards if n * samples * int(getattr(target.stacked.integrator, "substeps", 1)) >= SPLIT_STEPS else 1
 
 
 def bucketed(setups: list[Setup], search: Search) -> list[Setup]:

@@ -1,8 +1,9 @@
 """Compilation time against the number of runs (issue: speed at scale, Done-when (b)): the runs are
 a batch dimension of one compiled program, so `--runs 4` should compile in about the time of
 `--runs 1`. Each configuration of `experiments.bench_joint` (one SD1-like recording; 24 of equal
-length, stacked; 16 of lengths 501 down to 201, a scan per length) is fitted with DE at `runs` 1
-and 4 in fresh processes set up as the CLI starts (`use_host_devices`, `use_compiled_loops`)
+length, stacked; 16 of lengths 501 down to 201, a scan per length; the issue's 476 servo logs of
+`bench_servo_fleet`, DE and CMA-ES, a seventh of the budget) is fitted at `runs` 1 and 4 in fresh
+processes set up as the CLI starts (`use_host_devices`, `use_compiled_loops`)
 with the compilation cache off; `compile` is the engine's own figure
 (`result.timing["compile_s"]`: tracing, lowering and XLA of the whole run), the median of
 `--repeat` processes.
@@ -18,7 +19,8 @@ import statistics
 import subprocess
 import sys
 
-CONFIGS = {"1 recording": "1,0", "24 equal-length (stacked)": "24,0", "16 lengths 501..201 (a scan each)": "16,20"}
+CONFIGS = {"1 recording": "1,0", "24 equal-length (stacked)": "24,0", "16 lengths 501..201 (a scan each)": "16,20",
+           "476 servo logs (stacked), DE": "servo,de-rand-1-exp", "476 servo logs (stacked), CMA-ES": "servo,cma-es"}  # fmt: skip
 
 
 CHILD = """
@@ -26,9 +28,16 @@ import json, sys
 import dcjax
 dcjax.use_host_devices()  # as the CLI starts: one XLA host device per core, compiled loops
 dcjax.use_compiled_loops()
-from experiments.bench_joint import child
-count, step = map(int, sys.argv[1].split(","))
-print(json.dumps(child(count, step, int(sys.argv[2]), int(sys.argv[3]), False)))
+if sys.argv[1].startswith("servo,"):  # the issue's data: bench_servo_fleet's logs, as bench_many fits them
+    from experiments.bench_many import servo_case
+    case = servo_case()
+    res = dcjax.fit(case["data"], case["model"], case["params"], sys.argv[1].split(",")[1], runs=int(sys.argv[2]),
+                    budget=int(sys.argv[3]) // 7, observation=case["observation"])
+    print(json.dumps({"compile_s": res.timing["compile_s"]}))
+else:
+    from experiments.bench_joint import child
+    count, step = map(int, sys.argv[1].split(","))
+    print(json.dumps(child(count, step, int(sys.argv[2]), int(sys.argv[3]), False)))
 """
 
 

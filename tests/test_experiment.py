@@ -189,13 +189,16 @@ def test_equal_length_recordings_share_one_vmapped_objective(sd1, truth):
     np.testing.assert_array_equal(local.objective(xl), 0 + want)
 
 
-def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(sd1, truth):
+def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(sd1, truth, monkeypatch):
     """`stacked_target`: a joint problem of one group (equal lengths; close ones padded) held
     stacked gives the JointProblem's OF to the bit (and its residuals, the polish's), and its compiled objective does not grow with
     the number of recordings (a JointProblem's stacks and splits them inside: 476 servo logs
-    compiled 4.7 s, and 22.7 s over two devices, against 2.4 s and 2.6 s stacked)."""
+    compiled 4.7 s, and 22.7 s over two devices, against 2.4 s and 2.6 s stacked); beyond
+    `UNROLLED_SUM` recordings the weighted sum is a loop: the same OF to rounding, both paths
+    alike to the bit, and not even the sum's terms grow."""
     import jax
 
+    import dcjax.simulation.joint as joint
     from dcjax.simulation.joint import StackedJoint, joint_problem, stacked_target
 
     def problems(n):
@@ -221,6 +224,14 @@ def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(
     short = sd1.replace(t=sd1.t[:150], channels={c: v[:150] for c, v in sd1.channels.items()}, name="short")
     mixed = joint_problem([*problems(2), dcjax.make_problem(short)])
     assert stacked_target(mixed) is mixed  # two groups: left as it is
+    target = joint_problem(problems(3), [0.2, 0.3, 0.5])
+    written = of(stacked_target(target), x)
+    monkeypatch.setattr(joint, "UNROLLED_SUM", 2)
+    of = jax.jit(lambda t, x: t.objective(x))  # traced again with the loop
+    np.testing.assert_array_equal(of(stacked_target(target), x), of(target, x))
+    np.testing.assert_allclose(of(target, x), written, rtol=1e-14)
+    fewer = joint_problem(problems(16))  # 15 and 23 loop steps: 8 terms an iteration and a rest of 7 alike
+    assert abs(size(stacked_target(many)) - size(stacked_target(fewer))) < 50  # only the shapes' digits differ
 
 
 def test_split_shares_sum_to_the_stacked_objective(sd1, truth):

@@ -6,7 +6,11 @@ XLA's defaults and with `QUICK | LEAN` (a short search's), in ns a member's samp
 iteration over 4,096 elements in cache) and the flops of one step (the arithmetic equations of
 the map's jaxpr plus the loss's).
 
-    python -m experiments.bench_servo_eval [--logs 476] [--repeat 20]
+With `--fit`, the same two sines in the search (CMA-ES, one run of 1,200 FEs, as the CLI starts:
+2 host devices) and the ordered sum of a joint fit's OFs written out against its loop
+(`dcjax.simulation.joint.UNROLLED_SUM`; DE, 2 runs of 3,000 FEs), alternated twice in this process.
+
+    python -m experiments.bench_servo_eval [--logs 476] [--repeat 20] [--fit]
 """
 
 import argparse
@@ -73,7 +77,10 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--logs", type=int, default=476)
     ap.add_argument("--repeat", type=int, default=20)
+    ap.add_argument("--fit", action="store_true", help="also the sines and the ordered sum inside fits (2 host devices)")
     args = ap.parse_args()
+    if args.fit:
+        dcjax.use_host_devices()
     dcjax.use_compiled_loops()
     goal, const, q = logs(args.logs)
     t = DT * np.arange(SAMPLES)
@@ -106,6 +113,32 @@ def main():
                   f"{ns / (1e9 * flops / peak):4.1f}x the peak's", flush=True)  # fmt: skip
     finally:
         servo_module.sin = ours
+    if args.fit:
+        in_fits(recs, box, obs)
+
+
+def in_fits(recs, box, obs) -> None:
+    """The sines in a CMA-ES fit and the ordered sum written out or looped in a DE fit, alternated."""
+    import dcjax.simulation.joint as joint
+
+    ours, unrolled = servo_module.sin, joint.UNROLLED_SUM
+    try:
+        for k in range(4):
+            servo_module.sin = (ours, jnp.sin)[k % 2]
+            res = dcjax.fit(
+                recs, "servo", box, "cma-es", observation=obs, runs=1, budget=1200 + k
+            )  # a new budget each: compiled again, not reused
+            print(f"fit, {('dcjax.models.trig.sin', 'jnp.sin (libm)')[k % 2]:<22}: CMA-ES 1 run x 1,200 FEs, compile "
+                  f"{res.timing['compile_s']:.2f} s, search {res.timing['run_s']:.2f} s, OF {res.of:.7g}", flush=True)  # fmt: skip
+        servo_module.sin = ours
+        for k in range(4):
+            joint.UNROLLED_SUM = (unrolled, 1 << 30)[k % 2]
+            res = dcjax.fit(recs, "servo", box, "de-rand-1-exp", observation=obs, runs=2, budget=3000 + k)
+            print(f"fit, the ordered sum {('in a loop', 'written out')[k % 2]:<12}: DE 2 runs x 3,000 FEs, compile "
+                  f"{res.timing['compile_s']:.2f} s, search {res.timing['run_s']:.2f} s, OFs {', '.join(f'{v:.7g}' for v in res.run_of)}",
+                  flush=True)  # fmt: skip
+    finally:
+        servo_module.sin, joint.UNROLLED_SUM = ours, unrolled
 
 
 if __name__ == "__main__":

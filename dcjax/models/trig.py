@@ -2,8 +2,8 @@
 
 XLA:CPU computes a float64 `jnp.sin` by calling the C library's scalar `sin` for every element,
 and a call inside a fused loop keeps LLVM from vectorising the whole loop: with `jnp.sin` in the
-servo's map, CMA-ES's 1,200 evaluations of 476 logs searched in 1.8 s, with `sin` here 1.3 s
-(2-core Xeon; one evaluation: `python -m experiments.bench_servo_eval`). `sin` and `cos` here
+servo's map, CMA-ES's 1,200 evaluations of 476 logs searched in 1.9 s, with `sin` here 1.3-1.4 s
+(2-core Xeon, `python -m experiments.bench_servo_eval --fit`). `sin` and `cos` here
 are additions, multiplications and selections, which vectorise:
 
     k = round(x 2/pi),  r = x - k pi/2   (Cody–Waite: pi/2 in three 33-bit parts, the products

@@ -187,8 +187,8 @@ def weighted_in_order(weights: tuple[float, ...], ofs) -> Array:
     """sum_r w_r OF_r term by term in recording order (the same bits however the OFs were
     evaluated; a scan's sum contracts differently under jit). Beyond `UNROLLED_SUM` recordings
     a loop over them (8 terms an iteration), so that the program does not grow with their
-    number: 476 servo logs, DE, 2 runs, compiled in 2.2 s, was 3.6 s written out, and search ~4 %
-    slower (/tmp A/B, BENCHMARKS.md)."""
+    number: 476 servo logs, DE, 2 runs, compiled in 2.6 s, was 3.5-3.6 s written out, the search
+    2-4 % slower (`python -m experiments.bench_servo_eval --fit`)."""
     if len(weights) <= UNROLLED_SUM:
         acc = 0 + weights[0] * ofs[0]
         for r in range(1, len(weights)):

@@ -1,6 +1,6 @@
 """The methods at equal wall time on many-recording fits (issue: speed at scale, item 4): what a
 joint fit of hundreds of recordings should search with when the command line is given no
-`--method`, `--runs` or `--budget` (`dcjax.cli.defaults`).
+`--method`, `--runs` or `--budget` (`dcjax.fitting.defaults`).
 
 Cases (each method one run unless named x2, seed 0; a run of a large joint fit splits its
 recordings over the devices):

@@ -2,8 +2,8 @@
 joint fit of hundreds of recordings should search with when the command line is given no
 `--method`, `--runs` or `--budget` (`dcjax.fitting.defaults`).
 
-Cases (each method one run unless named x2, seed 0; a run of a large joint fit splits its
-recordings over the devices):
+Cases (each method one run unless named x2, seed 0; with fewer runs than devices a run of a large
+joint fit splits its recordings over its share of them):
 - 476 servo logs: `bench_servo_fleet`'s logs (its NumPy map, not dcjax's), BAM's loss, its box;
 - 128 DC recordings: the SD1 motor (Table 4's truth) under 128 stepped voltages (2 to 5 levels in
   20..220 V), 501 samples at 0.1 ms, simulated by `dcjax.io.numpy_simulator` (RK4), 0.5 % Gaussian
@@ -28,19 +28,13 @@ import numpy as np
 import dcjax
 from dcjax.io.numpy_simulator import simulate_numpy
 
-from .bench_servo_fleet import BOX, DT, SAMPLES, logs
+from .bench_servo_fleet import dcjax_case, logs
 
 METHODS = ("cma-es", "cma-es x2", "de-best-1-bin", "de-rand-1-exp", "tlbo", "ga", "abc")
 
 
 def servo_case(n: int = 476) -> dict:
-    goal, const, q = logs(n)
-    t = DT * np.arange(SAMPLES)
-    names = ("kp", "vin", "m", "l", "m_a")
-    recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(names, map(float, const[i]))), name=f"log{i}")
-            for i in range(n)]  # fmt: skip
-    box = dcjax.Parameters([dcjax.Parameter(k, min=lo, max=hi) for k, (lo, hi) in BOX.items()])
-    obs = dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})
+    recs, box, obs = dcjax_case(*logs(n))
     return dict(data=recs, model="servo", params=box, observation=obs)
 
 

@@ -30,7 +30,7 @@ from dcjax.fitting.runs import QUICK_COMPILE
 from dcjax.fitting.setup import plan
 from dcjax.simulation.joint import stacked_target
 
-from .bench_servo_fleet import BOX, DT, SAMPLES, logs
+from .bench_servo_fleet import BOX, DT, SAMPLES, dcjax_case, logs
 
 ARITHMETIC = {"add", "sub", "mul", "div", "neg", "abs", "sign", "min", "max", "round", "floor", "select_n", "eq", "sin", "integer_pow"}
 
@@ -82,13 +82,7 @@ def main():
     if args.fit:
         dcjax.use_host_devices()
     dcjax.use_compiled_loops()
-    goal, const, q = logs(args.logs)
-    t = DT * np.arange(SAMPLES)
-    names = ("kp", "vin", "m", "l", "m_a")
-    recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(names, map(float, const[i]))), name=f"log{i}")
-            for i in range(len(q))]  # fmt: skip
-    obs = dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})
-    box = dcjax.Parameters([dcjax.Parameter(k, min=lo, max=hi) for k, (lo, hi) in BOX.items()])
+    recs, box, obs = dcjax_case(*logs(args.logs))
     lo, hi = np.array([v[0] for v in BOX.values()]), np.array([v[1] for v in BOX.values()])
     x = jnp.asarray(lo + (hi - lo) * np.random.default_rng(0).uniform(0.2, 0.8, (12, len(BOX))))
     peak = fma_peak(args.repeat)

@@ -101,7 +101,9 @@ def peer(goal, const, q, trials: int, seed: int) -> tuple[dict, float, list, flo
     return dict(study.best_params), float(study.best_value), history, time.perf_counter() - t0
 
 
-def dcjax_fit(goal, const, q, method: str, runs: int, budget: int, seed: int):
+def dcjax_case(goal, const, q) -> tuple:
+    """(recordings, box, observation) of the logs as dcjax fits them: a recording per log with its
+    setup's constants, the peer's box, BAM's loss (l1, not normalised), q from its first sample."""
     import dcjax
 
     t = DT * np.arange(SAMPLES)
@@ -109,7 +111,13 @@ def dcjax_fit(goal, const, q, method: str, runs: int, budget: int, seed: int):
     recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(names, map(float, const[i]))),
                             name=f"log{i}") for i in range(len(q))]  # fmt: skip
     box = dcjax.Parameters([dcjax.Parameter(k, min=lo, max=hi) for k, (lo, hi) in BOX.items()])
-    obs = dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})
+    return recs, box, dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})
+
+
+def dcjax_fit(goal, const, q, method: str, runs: int, budget: int, seed: int):
+    import dcjax
+
+    recs, box, obs = dcjax_case(goal, const, q)
     t0 = time.perf_counter()
     res = dcjax.fit(recs, "servo", box, method, observation=obs, runs=runs, budget=budget, seed=seed)
     return res, time.perf_counter() - t0

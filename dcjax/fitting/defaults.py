@@ -1,6 +1,6 @@
 """The search a fit gets where none is asked for (the command line without `--method`, `--runs`,
 `--budget`): the paper's (DE/rand/1/exp, 50 runs of 140,000 FEs) for a fit whose evaluation is
-short, and a shorter CMA-ES search for a joint fit of many recordings, where the paper's would
+short, and a shorter DE/best/1/bin search for a joint fit of many recordings, where the paper's would
 take hours (476 servo logs: 50 x 140,000 evaluations of 1.1 ms). Chosen at equal wall time on
 476 servo logs, 128 DC recordings and the real EMPS axis: `python -m experiments.bench_many`
 (`experiments/BENCHMARKS.md`)."""

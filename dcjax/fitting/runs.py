@@ -189,7 +189,7 @@ def run_group(
     batched = n > 1
     shards = 1 if batched else recording_shards(targets[0], runs)
     split = shards > 1
-    axis = "recordings" if runs == 1 and batched or split else "runs"  # one run of many recordings: split the recordings
+    axis = "recordings" if (runs == 1 and batched) or split else "runs"  # one run of many recordings: split the recordings
     devices = jax.devices()[: runs * shards] if split else jax.devices() if runs > 1 or axis == "recordings" else jax.devices()[:1]
     mesh = Mesh(np.array(devices).reshape(runs, shards), ("runs", axis)) if split else mesh_of(devices, axis)
     pad = padded_size(n, devices) - n if batched and axis == "recordings" else 0

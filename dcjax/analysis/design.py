@@ -104,6 +104,7 @@ def with_input(prob: Problem, u: jax.Array, columns: Sequence[int] = (0,)) -> Pr
     cols = np.asarray(columns)
     u_start = prob.u_start.at[:, cols].set(u[:-1])
     u_end = prob.u_end.at[:, cols].set(u[1:])
+    prob = dataclasses.replace(prob, steady=tuple(j for j in prob.steady if j not in cols))  # designed: read every step
     return eqx.tree_at(lambda p: (p.u_start, p.u_end), prob, (u_start, u_end))
 
 

@@ -49,7 +49,7 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
     piece's start and end.
 
     Without a delay one piece, the interval and its samples (eq. 29; a held input's start value
-    twice). With delays (an ODE model) the interval [t_{k-1}, t_k] is split at the knots t_j + d
+    twice; a discrete-time map's start alone, (n-1, 1, 1); a steady input None). With delays (an ODE model) the interval [t_{k-1}, t_k] is split at the knots t_j + d
     of every delayed input that fall inside it (`Problem.knots` per input; a slot without a knot
     has length 0), and each input is read as u(tau - d) at the pieces' ends (a held input: its
     sample before tau - d at the piece's middle, constant over the piece). A discrete-time model:
@@ -58,8 +58,13 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
 
     m = problem.u_start.shape[1]
     delay = None if adjustments is None else adjustments.delay
-    if delay is None:
-        return problem.h[:, None], tuple(jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1)[:, None] for j in range(m))
+    if delay is None:  # a steady input: None (read once, `Problem.steady_inputs`); a discrete-time map's: its start only
+        ends = problem.reads_ends
+        return problem.h[:, None], tuple(
+            None if j in problem.steady else
+            (jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1) if ends else problem.u_start[:, j, None])[:, None]
+            for j in range(m)
+        )  # fmt: skip
     t, u = sample_times(problem), _samples(problem)
     batch = delay.shape[:-1]
     if isinstance(problem.model, DiscreteModel):

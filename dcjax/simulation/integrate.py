@@ -45,11 +45,16 @@ def advance_with(model, integrator: Integrator, limit, c, y: State, h, ua: State
     return jax.lax.fori_loop(0, nd, sub, y)
 
 
-def advance_pieces(c, problem: Problem, y: State, lengths, inputs) -> State:
+def advance_pieces(c, problem: Problem, y: State, lengths, inputs, steady: tuple = ()) -> State:
     """One sample interval as its pieces (`dcjax.simulation.adjustments.input_pieces`): each
-    piece `advance`d with its own linear input."""
+    piece `advance`d with its own linear input (a piece's last value its end: a discrete-time
+    map's pieces hold their start only); an input given as None is `steady` (its value there,
+    `Problem.steady_inputs`)."""
+    steady = steady or (None,) * len(inputs)
     for p in range(lengths.shape[-1]):
-        y = advance(c, problem, y, lengths[..., p], tuple(u[..., p, 0] for u in inputs), tuple(u[..., p, 1] for u in inputs))
+        ua = tuple(s if u is None else u[..., p, 0] for u, s in zip(inputs, steady))
+        ub = tuple(s if u is None else u[..., p, -1] for u, s in zip(inputs, steady))
+        y = advance(c, problem, y, lengths[..., p], ua, ub)
     return y
 
 
@@ -71,12 +76,28 @@ def initial_state(problem: Problem, batch: tuple[int, ...], y0=None) -> State:
 
 def step_inputs(problem: Problem) -> Float[Array, "n-1 k"]:
     """One packed per-step input array: h, u_start (m), u_end (m) (one slice per step instead of
-    several: measured 4-7 % faster)."""
+    several: measured 4-7 % faster). The Pallas kernel's layout; the scan reads `scan_inputs`."""
     return jnp.concatenate([problem.h[:, None], problem.u_start, problem.u_end], axis=1)
 
 
-def split_inputs(x, m: int):
-    return x[0], tuple(x[1 + j] for j in range(m)), tuple(x[1 + m + j] for j in range(m))
+def scan_inputs(problem: Problem) -> Float[Array, "n-1 k"]:
+    """What the time scan reads at each step, packed: h, the `varying` inputs at the interval's
+    start and, where a step reads them (an ODE model, eq. 29), at its end. A steady input is read
+    once (`Problem.steady_inputs`): the scan's loop carries (and XLA copies into it, every
+    evaluation) only what changes."""
+    cols = problem.varying
+    ends = [problem.u_end[:, j] for j in cols] if problem.reads_ends else []
+    return jnp.stack([problem.h, *(problem.u_start[:, j] for j in cols), *ends], axis=1)
+
+
+def scan_values(problem: Problem, steady: tuple, x):
+    """(h, ua, ub) of one row `x` of `scan_inputs`; `steady`: `problem.steady_inputs()`."""
+    k = len(problem.varying)
+    at = dict(zip(problem.varying, range(k)))
+    ua = tuple(x[1 + at[j]] if v is None else v for j, v in enumerate(steady))
+    if not problem.reads_ends:
+        return x[0], ua, ua
+    return x[0], ua, tuple(x[1 + k + at[j]] if v is None else v for j, v in enumerate(steady))
 
 
 def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*batch n s"]:
@@ -85,11 +106,10 @@ def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*
     Batched parameters (leading axes) are marched in one scan: shape `(*batch, N, S)`.
     `adjustments` (`dcjax.simulation.adjustments.Adjustments`): a fitted initial state, delayed inputs."""
     c, y = prepare(params, problem)
-    m = problem.u_start.shape[1]
+    steady = problem.steady_inputs()
 
     def body(y, x):
-        h, ua, ub = split_inputs(x, m)
-        y = advance(c, problem, y, h, ua, ub)
+        y = advance(c, problem, y, *scan_values(problem, steady, x))
         return y, jnp.stack(y, axis=-1)
 
     if adjustments is not None and (adjustments.y0 is not None or adjustments.delay is not None):
@@ -97,11 +117,11 @@ def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*
         y = initial_state(problem, batch, adjustments.y0)
 
         def body_adjusted(y, xs):
-            y = advance_pieces(c, problem, y, *xs)
+            y = advance_pieces(c, problem, y, *xs, steady)
             return y, jnp.stack(y, axis=-1)
 
         _, ys = jax.lax.scan(body_adjusted, y, input_pieces(problem, adjustments), unroll=problem.unroll)
     else:
-        _, ys = jax.lax.scan(body, y, step_inputs(problem), unroll=problem.unroll)
+        _, ys = jax.lax.scan(body, y, scan_inputs(problem), unroll=problem.unroll)
     out = jnp.concatenate([jnp.stack(y, axis=-1)[None], ys], axis=0)  # (N, *batch, S)
     return jnp.moveaxis(out, 0, -2)

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .adjustments import Adjustments, input_pieces
-from .integrate import advance, advance_pieces, initial_state, prepare, simulate_scan, split_inputs, step_inputs
+from .integrate import advance, advance_pieces, initial_state, prepare, scan_inputs, scan_values, simulate_scan
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
 from .losses import SSE
 from .problem import Problem, make_problem
@@ -81,7 +81,9 @@ def objective(params, problem: Problem, adjustments: Adjustments | None = None) 
     if not plain:
         return _finite_or_inf(_scored_scan(x, problem, adjustments))
     c, y = prepare(x, problem)
-    m = problem.u_start.shape[1]
+    steady = problem.steady_inputs()
+    inputs = scan_inputs(problem)
+    width = inputs.shape[1]
     outs = problem.model.output_index
     scale = [problem.scale[j] for j in range(len(outs))]
 
@@ -94,11 +96,10 @@ def objective(params, problem: Problem, adjustments: Adjustments | None = None) 
 
     def body(carry, x):
         y, acc = carry
-        h, ua, ub = split_inputs(x, m)
-        y = advance(c, problem, y, h, ua, ub)
-        return (y, misfit(acc, y, x[1 + 2 * m :])), None
+        y = advance(c, problem, y, *scan_values(problem, steady, x))
+        return (y, misfit(acc, y, x[width:])), None
 
-    xs = jnp.concatenate([step_inputs(problem), problem.y_meas[1:]], axis=1)
+    xs = jnp.concatenate([inputs, problem.y_meas[1:]], axis=1)
     (_, acc), _ = jax.lax.scan(body, (y, acc), xs, unroll=problem.unroll)
     return _finite_or_inf(acc)
 
@@ -120,11 +121,12 @@ def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
         return acc
 
     mask = problem.mask
+    steady = problem.steady_inputs()
 
     def body(carry, xs):
         y, acc = carry
         lengths, inputs, meas, weight = xs
-        y = advance_pieces(c, problem, y, lengths, inputs)
+        y = advance_pieces(c, problem, y, lengths, inputs, steady)
         return (y, misfit(acc, y, meas, weight)), None
 
     acc = misfit(0.0, y, problem.y_meas[0], None)

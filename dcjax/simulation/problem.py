@@ -6,7 +6,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..io.recording import DataError, Recording
-from ..models import Model, get_model
+from ..models import DiscreteModel, Model, get_model
 from .integrators import RK4, Integrator, integrator_for
 from .losses import SSE, Loss, get_loss
 
@@ -17,7 +17,8 @@ class Problem(eqx.Module):
     Sample k = 0 is the initial state; interval k (k = 1..N-1) integrates from t[k-1] to
     t[k] with step h[k-1] = t[k] - t[k-1], split into `integrator.substeps` equal sub-steps
     (eq. 28) with the inputs interpolated linearly between u[k-1] and u[k] (eq. 29), or held at
-    u[k-1] for an input in `held` (u_end = u_start there)."""
+    u[k-1] for an input in `held` (u_end = u_start there). A `steady` input (given as a
+    recording's constant) is read once, not at every step (`varying`, `steady_inputs`)."""
 
     model: Model
     h: Float[Array, " n-1"]
@@ -34,6 +35,7 @@ class Problem(eqx.Module):
     unroll: int = eqx.field(static=True, default=1)
     knots: int = eqx.field(static=True, default=1)  # most knots of a delayed input inside one interval (`knots_per_interval`)
     held: tuple[int, ...] = eqx.field(static=True, default=())  # inputs held between samples (zero-order hold) instead of eq. 29
+    steady: tuple[int, ...] = eqx.field(static=True, default=())  # inputs constant over the recording (its constants)
 
     @property
     def n(self) -> int:
@@ -41,6 +43,22 @@ class Problem(eqx.Module):
 
     def measured(self, channel: str) -> Float[Array, " n"]:
         return self.y_meas[:, self.model.outputs.index(channel)]
+
+    @property
+    def varying(self) -> tuple[int, ...]:
+        """The inputs a step reads from the samples: all but the `steady` ones."""
+        return tuple(j for j in range(self.u_start.shape[-1]) if j not in self.steady)
+
+    @property
+    def reads_ends(self) -> bool:
+        """Whether a step reads its interval's end input (eq. 29); a discrete-time map reads its start only."""
+        return not isinstance(self.model, DiscreteModel)
+
+    def steady_inputs(self) -> tuple:
+        """Per input its value where `steady` (one for the whole recording), else None: read once,
+        outside the time loop, so that the loop carries only the inputs that change (476 servo
+        logs' five constants were 5/6 of the inputs every step of every evaluation copied)."""
+        return tuple(self.u_start[..., 0, j] if j in self.steady else None for j in range(self.u_start.shape[-1]))
 
 
 def _host(x) -> Array:
@@ -161,6 +179,7 @@ def make_problem(
         loss=loss,
         knots=knots_per_interval(t),
         held=held,
+        steady=tuple(j for j, c in enumerate(model.inputs) if (j == 0 and voltage is not None) or c not in recording.channels),
     )
 
 

@@ -72,7 +72,7 @@ def test_a_discrete_maps_scan_reads_the_goal_alone_and_a_stack_sums_as_the_recor
     assert scan_inputs(cols[0]).shape[1] == 1 + 6
     x = np.array([test_servo.TRUTH[n] for n in dcjax.Servo.names]) * np.random.default_rng(1).uniform(0.7, 1.3, (5, 5))
     singles = [np.asarray(objective(x, p)) for p in probs]
-    for p, c, s in zip(probs, cols, singles):
+    for c, s in zip(cols, singles):
         np.testing.assert_array_equal(s, np.asarray(objective(x, c)))
     y = ref.iterate(ref.servo_m1_map, dict(zip(dcjax.Servo.names, x[0])), recs[0].t,
                     np.column_stack([recs[0]["q_goal"]] + [np.full(300, setups[0][k]) for k in ("kp", "vin", "m", "l", "m_a")]),

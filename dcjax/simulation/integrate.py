@@ -117,7 +117,8 @@ def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*
         y = initial_state(problem, batch, adjustments.y0)
 
         def body_adjusted(y, xs):
-            y = advance_pieces(c, problem, y, *xs, steady)
+            lengths, inputs = xs
+            y = advance_pieces(c, problem, y, lengths, inputs, steady)
             return y, jnp.stack(y, axis=-1)
 
         _, ys = jax.lax.scan(body_adjusted, y, input_pieces(problem, adjustments), unroll=problem.unroll)

@@ -25,11 +25,15 @@ from dcjax import datasets
 from dcjax.compiling import LEAN, QUICK
 from dcjax.fitting import runs
 
+from .bench_servo_fleet import dcjax_case, logs
+
 dcjax.use_compiled_loops()  # before any JAX computation, as the CLI (no compilation cache)
 
 
 def cases() -> dict:
     sd1, sd2, md1 = datasets.load("SD1"), datasets.load("SD2"), datasets.load("MD1")
+    recs, box, servo_obs = dcjax_case(*logs(476))  # bench_servo_fleet's logs: a search between COMPILE_FES / 3 and COMPILE_FES
+    servo = (recs, "servo", box)
     return {
         "SD1 DE/rand/1/exp, 1 run": lambda: dcjax.fit(sd1, runs=1, budget=140_000, seed=0),
         "SD1 ABC, 1 run": lambda: dcjax.fit(sd1, method="abc", runs=1, budget=140_000, seed=0),
@@ -41,6 +45,8 @@ def cases() -> dict:
         ),  # fmt: skip
         "SD1+SD2 joint, 4 runs": lambda: dcjax.fit([sd1, sd2], params="table4", runs=4, budget=28_000, seed=0),
         "SD1 LTMA, 4 runs": lambda: dcjax.fit(sd1, params="table4", memory=dcjax.LTMA(), runs=4, budget=28_000, seed=0),
+        "SD1 RK4 ND 8, 1 run": lambda: dcjax.fit(sd1, params="table4", integrator=dcjax.RK4(substeps=8), runs=1, budget=140_000, seed=0),
+        "476 servo logs CMA-ES, 1 run": lambda: dcjax.fit(*servo, "cma-es", observation=servo_obs, runs=1, budget=2_000, seed=0),
     }
 
 
@@ -48,7 +54,7 @@ OPTIONS = {"default": {}, "level 2": QUICK, "level 2 lean": QUICK | LEAN}
 
 
 def measure(fit, options: dict, repeat: int) -> tuple[float, float, str]:
-    runs.compiler_options = lambda work: options
+    runs.compiler_options = lambda work, plain=True: options
     runs.EXECUTABLES.clear()
     first = fit()
     search = statistics.median([fit().timing["run_s"] for _ in range(repeat)])
@@ -62,8 +68,8 @@ def main():
     args = ap.parse_args()
     rule, picked = runs.compiler_options, []
 
-    def recorded(work):
-        options = rule(work)
+    def recorded(work, plain=True):
+        options = rule(work, plain)
         picked.append("default" if options is None else "level 2 lean" if "xla_cpu_use_fusion_emitters" in options else "level 2")
         return options
 

@@ -196,12 +196,14 @@ def test_a_short_search_compiles_quick_to_the_same_bits(sd1, monkeypatch):
     default, and the level depends on one run's work, not on how many runs there are."""
     runs = sys.modules["dcjax.fitting.runs"]
     assert runs.compiler_options(1e6) == runs.QUICK_COMPILE and runs.compiler_options(1e12) is None
+    mid = runs.COMPILE_FES / 2  # a plain search of this much work compiles quick, a memory-assisted one not
+    assert runs.compiler_options(mid) == runs.QUICK_COMPILE and runs.compiler_options(mid, plain=False) is None
     seen = []
-    monkeypatch.setattr(runs, "compiler_options", lambda work: seen.append(work) or runs.QUICK_COMPILE)
+    monkeypatch.setattr(runs, "compiler_options", lambda work, plain=True: seen.append(work) or runs.QUICK_COMPILE)
     quick = dcjax.fit(sd1, runs=2, budget=700, seed=3)
     dcjax.fit(sd1, runs=4, budget=700, seed=3)
     assert seen == [700 * len(sd1.t)] * 2  # RK4, one sub-step: budget x samples, whatever the runs
-    monkeypatch.setattr(runs, "compiler_options", lambda work: None)
+    monkeypatch.setattr(runs, "compiler_options", lambda work, plain=True: None)
     default = dcjax.fit(sd1, runs=2, budget=700, seed=3)
     assert not default.timing["reused_executable"]  # its own program, not the quick one
     assert np.array_equal(quick.run_of, default.run_of) and np.array_equal(quick.run_params, default.run_params)

@@ -211,7 +211,7 @@ def run_group(
     args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
-    options = compiler_options(search.budget * max(sample_steps(s) for s in setups))
+    options = compiler_options(search.budget * max(sample_steps(s) for s in setups), plain=search.memory is None and not batched)
     cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
                  tuple(sorted((options or {}).items())))  # fmt: skip
     t0 = time.perf_counter()
@@ -256,14 +256,17 @@ def sample_steps(setup: Setup) -> int:
     return sum(p.n for p in setup.problems) * int(getattr(setup.integrator, "substeps", 1))
 
 
-def compiler_options(run_work: float) -> dict | None:
+def compiler_options(run_work: float, plain: bool = True) -> dict | None:
     """`QUICK_COMPILE` where one run is short against a compilation (`run_work`: its one-sample
-    FEs, budget x sample steps, under `COMPILE_FES` / 3, about a second here: the compile time
-    saved outweighs the <= 14 % of the search lost up to ~8 runs a device, 25-27 % for a batch of
-    recordings or a memory-assisted search), else XLA's defaults (None). Per run, so that neither
-    the number of runs nor a batch changes a run's program (CMA-ES's last bits differ between the
-    options)."""
-    return QUICK_COMPILE if run_work < COMPILE_FES / 3 else None
+    FEs, budget x sample steps), else XLA's defaults (None). A plain search (no memory, one
+    setup) compiles quick up to `COMPILE_FES`, ~2-3 s of search here: it compiles in 0.4-0.5 of
+    the time (0.5-0.8 s saved) and searches in 0.97-1.05 of it (the paper's methods), 1.15 (476
+    servo logs, CMA-ES; 1.05-1.07 on 2 devices), which the saving outweighs while a device's runs
+    of the program search for less than ~5 s (`python -m experiments.bench_compile_level`). A
+    memory-assisted search or a batch of recordings, 25-36 % slower, up to `COMPILE_FES` / 3.
+    Per run, so that neither the number of runs nor a batch changes a run's program (CMA-ES's
+    last bits differ between the options)."""
+    return QUICK_COMPILE if run_work < (COMPILE_FES if plain else COMPILE_FES / 3) else None
 
 
 # One run of a joint fit split over 2 host devices (servo logs of 700 samples, one run of 600 FEs,

@@ -51,12 +51,16 @@ def _backends_started() -> bool:
         return False
 
 
-def use_compiled_loops(max_bytes: int = 1 << 17) -> bool:
-    """Let XLA's CPU compiler build each while loop that touches at most `max_bytes` per
-    iteration as one function, instead of dispatching its body's kernels one at a time (XLA's
-    default limit is 1 KiB). A simulation's time loop over a population of 70 touches ~17 KB per
-    step: it runs ~1.3x faster, and one SD1 DE run takes 0.24 s instead of 0.33 s
-    (`python -m experiments.bench_identify`). Large batches gain nothing and lose nothing.
+def use_compiled_loops(max_bytes: int = 1 << 24) -> bool:
+    """Let XLA's CPU compiler build each while loop whose state is at most `max_bytes` as one
+    function, instead of dispatching its body's kernels one at a time (XLA's default limit is 1
+    KiB). A `lax.scan`'s state holds the whole arrays it reads, so a stacked joint fit's time
+    loop (every recording's samples) needs a high limit where one recording's does not: at 16 MiB
+    against 128 KiB one SD1 DE run searches in 0.19 s instead of 0.24 s, an evaluation of 16
+    stacked recordings x 70 members takes 1.4 ms instead of 5.1, a generation of CMA-ES on 476
+    servo logs 16.1 ms instead of 19.9 (`python -m experiments.bench_loop_bytes`), a folder of
+    20 files of 20 lengths (`--each`) searches in 8.4 s instead of 11.0 (`python -m
+    experiments.bench_each --lengths 400 1600`); at XLA's 1 KiB one SD1 run took 0.33 s.
 
     Adds `--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=<max_bytes>` to
     `XLA_FLAGS`, which XLA reads when JAX starts its backends, so call it before any JAX

@@ -35,6 +35,7 @@ from ..simulation.joint import (
     JointProblem,
     SplitJoint,
     StackedJoint,
+    joint_buckets,
     length_buckets,
     paddable,
     padded,
@@ -298,13 +299,15 @@ def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
     above a member), the same for every folder: a second folder of similar files finds its
     programs in the persistent compilation cache. A padded recording is scored over its padded
     problem (the same OF to rounding, so its runs may differ in the last bits from a fit of it
-    alone); recordings of one length only are not padded."""
+    alone); recordings of one length only are not padded. A joint fit's recordings of far
+    lengths likewise, into buckets of exact tops (`joint_buckets`)."""
     by_structure: dict = {}
     for k, s in enumerate(setups):
         if len(s.recordings) == 1 and paddable(s.problems[0]):
             key = (stack_structure(s.problems[0]), s.space.free, s.space.log, len(s.space.names), repr(s.integrator))
             by_structure.setdefault(key, []).append(k)
-    out = list(setups)
+    out = [s if len(s.problems) < 2 else dataclasses.replace(s, problems=joint_buckets(s.problems, search.runs * search.budget, COMPILE_FES))
+           for s in setups]  # fmt: skip
     for members in by_structure.values():
         lengths = [setups[k].problems[0].n for k in members]
         if len(set(lengths)) < 2:

@@ -153,6 +153,29 @@ def length_buckets(lengths, fes: float, compile_fes: float, per_octave: int | No
     return {int(n): bucket[top_of(n)] for n in lengths}
 
 
+def joint_buckets(problems: list[Problem], fes: float, compile_fes: float) -> list[Problem]:
+    """A joint fit's problems with those of one structure whose lengths are too far apart for
+    `JointProblem.groups` to pad into one scan (`PAD_SHARE`) `padded` into the length buckets
+    that cost least (`length_buckets` with exact tops: every evaluation runs every recording, so
+    each sample costs `fes` FEs; a scan more to compile `compile_fes`): few scans where the
+    search is short, one per length where it is long. The others as they are (discrete-time
+    models are not paddable)."""
+    by_structure: dict = {}
+    for r, p in enumerate(problems):
+        if paddable(p):
+            by_structure.setdefault(stack_structure(p), []).append(r)
+    out = list(problems)
+    for members in by_structure.values():
+        lengths = [problems[r].n for r in members]
+        if len(set(lengths)) < 2 or max(lengths) * len(members) <= PAD_SHARE * sum(lengths):  # one scan already
+            continue
+        to = length_buckets(lengths, fes, compile_fes)
+        if len(set(to.values())) < len(set(lengths)):
+            for r, n in zip(members, lengths):
+                out[r] = padded(problems[r], to[n])
+    return out
+
+
 def padded(problem: Problem, n: int) -> Problem:
     """`problem` lengthened to `n` samples that do not count: steps of zero length (the state
     holds), the last inputs and measurements repeated, `mask` 0 there (eq. 24's 1/N and the

@@ -45,7 +45,7 @@ from ..simulation.joint import (
 )
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
-from .runner import ExecutableCache, fold_keys, mesh_of, padded_size, replicate, shard, to_host
+from .runner import ExecutableCache, mesh_of, padded_size, replicate, shard, to_host
 from .setup import Search, Setup
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
@@ -124,14 +124,17 @@ def group_key(setup: Setup) -> tuple:
 
 
 def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool, batched: bool, axis: str, split: bool = False):
-    """All runs as one function of (keys, target, space, precision, x0, hyperparameters, token,
-    member): one setup's (`batched` False) or a stack of setups' (vmapped over the leading axis
+    """All runs as one function of ((seed, run indices), target, space, precision, x0,
+    hyperparameters, token, member), run r keyed by `fold_in(PRNGKey(seed), r)` inside the
+    program (`runner.fold_keys`'s keys, not a separate compiled call): one setup's (`batched` False) or a stack of setups' (vmapped over the leading axis
     of the target, space, precision, x0 and member index). On several devices each device runs
     its share along `axis` ("runs" or "recordings"); `split`: a joint fit on a mesh of runs x
     recordings, each run's recordings (a `SplitJoint`) split over its row of devices, the
     run's search repeated on each."""
 
-    def device_runs(keys, target, space, prec, x0, hyper, token, member):
+    def device_runs(run_ids, target, space, prec, x0, hyper, token, member):
+        seed, ids = run_ids
+        keys = jax.vmap(lambda r: jax.random.fold_in(jax.random.PRNGKey(seed), r))(ids)
         report = None
         if progress:
             device = jax.lax.axis_index(("runs", axis) if split else axis) if mesh is not None else 0
@@ -142,11 +145,11 @@ def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool
     if mesh is not None:
         rep, part = PartitionSpec(), PartitionSpec(axis)
         if split:
-            specs, out = (PartitionSpec("runs"), part, *[rep] * 6), PartitionSpec("runs")
+            specs, out = ((rep, PartitionSpec("runs")), part, *[rep] * 6), PartitionSpec("runs")
         elif axis == "runs":
-            specs, out = (part, *[rep] * 7), PartitionSpec(None, "runs") if batched else part
+            specs, out = ((rep, part), *[rep] * 7), PartitionSpec(None, "runs") if batched else part
         else:
-            specs, out = (rep, part, part, part, part, rep, rep, part), part
+            specs, out = ((rep, rep), part, part, part, part, rep, rep, part), part
         fn = jax.shard_map(fn, mesh=mesh, in_specs=specs, out_specs=out, check_vma=False)
     return jax.jit(fn)
 
@@ -198,18 +201,19 @@ def run_group(
         targets = [split_target(targets[0], shards, axis)]
     target, space, prec, z0, member = _group_args(setups, targets, search, pad)
     if split:
-        keys = shard(fold_keys(search.seed, runs), mesh, "runs")
+        ids = shard(np.arange(runs), mesh, "runs")
         target = jax.tree.map(lambda a: shard(a, mesh, axis), target)
         space, prec, z0 = (jax.tree.map(lambda a: replicate(a, mesh), b) for b in (space, prec, z0))
     elif axis == "recordings":
-        keys = replicate(fold_keys(search.seed, runs), mesh)
+        ids = replicate(np.arange(runs), mesh)
         target, space, prec, z0, member = (jax.tree.map(lambda a: shard(a, mesh, axis), b) for b in (target, space, prec, z0, member))
     else:
-        keys = shard(fold_keys(search.seed, padded_size(runs, devices)), mesh, axis)
+        ids = shard(np.arange(padded_size(runs, devices)), mesh, axis)
         if batched:
             target, space, prec, z0, member = (jax.tree.map(lambda a: replicate(a, mesh), b) for b in (target, space, prec, z0, member))
     token = next(_TOKENS)
-    args = (keys, target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64), jnp.asarray(member))
+    args = ((replicate(np.int64(search.seed), mesh), ids), target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64),
+            jnp.asarray(member))  # fmt: skip
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
     options = compiler_options(search.budget * max(sample_steps(s) for s in setups), plain=search.memory is None and not batched)
@@ -221,7 +225,7 @@ def run_group(
     t1 = time.perf_counter()
     if report is not None:
         reports = shards  # split: every device of a run's row reports it
-        _METERS[token] = ProgressMeter(report, (n + pad) * int(keys.shape[0]) * reports)
+        _METERS[token] = ProgressMeter(report, (n + pad) * int(ids.shape[0]) * reports)
     try:
         outs = jax.block_until_ready(compiled(*args))
         jax.effects_barrier()

@@ -372,7 +372,8 @@ def split_target(target: StackedJoint, parts: int, axis: str) -> SplitJoint:
     recording repeated with weight 0 up to a multiple of `parts`); host arrays, to be placed."""
     n = len(target.weights)
     pad = -(-n // parts) * parts - n
-    stacked = jax.tree.map(lambda a: np.concatenate([np.asarray(a)] + [np.asarray(a)[-1:]] * pad) if eqx.is_array(a) else a, target.stacked)
+    more = lambda a: np.concatenate([np.asarray(a)] + [np.asarray(a)[-1:]] * pad) if pad else a  # no copy where the shares are equal
+    stacked = jax.tree.map(lambda a: more(a) if eqx.is_array(a) else a, target.stacked)
     return SplitJoint(stacked, np.asarray(target.weights + (0.0,) * pad), target.layout, axis)
 
 

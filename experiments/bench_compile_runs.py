@@ -1,7 +1,7 @@
 """Compilation time against the number of runs (issue: speed at scale, Done-when (b)): the runs are
 a batch dimension of one compiled program, so `--runs 4` should compile in about the time of
 `--runs 1`. Each configuration of `experiments.bench_joint` (one SD1-like recording; 24 of equal
-length, stacked; 16 of lengths 501 down to 201, a scan per length; the issue's 476 servo logs of
+length, stacked; 16 of lengths 501 down to 201, padded into one scan at this budget (`joint_buckets`); the issue's 476 servo logs of
 `bench_servo_fleet`, DE and CMA-ES, a seventh of the budget) is fitted at `runs` 1 and 4 in fresh
 processes set up as the CLI starts (`use_host_devices`, `use_compiled_loops`)
 with the compilation cache off; `compile` is the engine's own figure
@@ -19,7 +19,7 @@ import statistics
 import subprocess
 import sys
 
-CONFIGS = {"1 recording": "1,0", "24 equal-length (stacked)": "24,0", "16 lengths 501..201 (a scan each)": "16,20",
+CONFIGS = {"1 recording": "1,0", "24 equal-length (stacked)": "24,0", "16 lengths 501..201 (padded, joint_buckets)": "16,20",
            "476 servo logs (stacked), DE": "servo,de-rand-1-exp", "476 servo logs (stacked), CMA-ES": "servo,cma-es"}  # fmt: skip
 
 

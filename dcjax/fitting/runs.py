@@ -126,8 +126,9 @@ def group_key(setup: Setup) -> tuple:
 def _compiled_runs(program: BatchProgram, memory, mesh, dim: int, progress: bool, batched: bool, axis: str, split: bool = False):
     """All runs as one function of ((seed, run indices), target, space, precision, x0,
     hyperparameters, token, member), run r keyed by `fold_in(PRNGKey(seed), r)` inside the
-    program (`runner.fold_keys`'s keys, not a separate compiled call): one setup's (`batched` False) or a stack of setups' (vmapped over the leading axis
-    of the target, space, precision, x0 and member index). On several devices each device runs
+    program (`runner.fold_keys`'s keys, not a separate compiled call): one setup's (`batched`
+    False) or a stack of setups' (vmapped over the leading axis of the target, space, precision,
+    x0 and member index). On several devices each device runs
     its share along `axis` ("runs" or "recordings"); `split`: a joint fit on a mesh of runs x
     recordings, each run's recordings (a `SplitJoint`) split over its row of devices, the
     run's search repeated on each."""
@@ -310,8 +311,8 @@ def bucketed(setups: list[Setup], search: Search) -> list[Setup]:
         if len(s.recordings) == 1 and paddable(s.problems[0]):
             key = (stack_structure(s.problems[0]), s.space.free, s.space.log, len(s.space.names), repr(s.integrator))
             by_structure.setdefault(key, []).append(k)
-    out = [s if len(s.problems) < 2 else dataclasses.replace(s, problems=joint_buckets(s.problems, search.runs * search.budget, COMPILE_FES))
-           for s in setups]  # fmt: skip
+    fes = search.runs * search.budget
+    out = [s if len(s.problems) < 2 else dataclasses.replace(s, problems=joint_buckets(s.problems, fes, COMPILE_FES)) for s in setups]
     for members in by_structure.values():
         lengths = [setups[k].problems[0].n for k in members]
         if len(set(lengths)) < 2:

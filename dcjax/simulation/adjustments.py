@@ -49,11 +49,12 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
     piece's start and end.
 
     Without a delay one piece, the interval and its samples (eq. 29; a held input's start value
-    twice; a discrete-time map's start alone, (n-1, 1, 1); a steady input None). With delays (an ODE model) the interval [t_{k-1}, t_k] is split at the knots t_j + d
-    of every delayed input that fall inside it (`Problem.knots` per input; a slot without a knot
-    has length 0), and each input is read as u(tau - d) at the pieces' ends (a held input: its
-    sample before tau - d at the piece's middle, constant over the piece). A discrete-time model:
-    one piece, its inputs read at t_{k-1} - d and t_k - d."""
+    twice; a discrete-time map's start alone, (n-1, 1, 1); a steady input None). With delays (an
+    ODE model) the interval [t_{k-1}, t_k] is split at the knots t_j + d of every delayed input
+    that fall inside it (`Problem.knots` per input; a slot without a knot has length 0), and each
+    input is read as u(tau - d) at the pieces' ends (a held input: its sample before tau - d at
+    the piece's middle, constant over the piece). A discrete-time model: one piece, its inputs
+    read at t_{k-1} - d and t_k - d."""
     from ..models.base import DiscreteModel
 
     m = problem.u_start.shape[1]

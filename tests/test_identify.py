@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -207,6 +208,20 @@ def test_a_short_search_compiles_quick_to_the_same_bits(sd1, monkeypatch):
     default = dcjax.fit(sd1, runs=2, budget=700, seed=3)
     assert not default.timing["reused_executable"]  # its own program, not the quick one
     assert np.array_equal(quick.run_of, default.run_of) and np.array_equal(quick.run_params, default.run_params)
+
+
+def test_run_r_is_keyed_by_fold_in_of_the_seed_whatever_the_number_of_runs(sd1):
+    """Run r's key is `fold_in(PRNGKey(seed), r)`, folded inside the compiled program: a run's
+    bits do not depend on how many runs are made, another seed
+    gives other runs, and the keys are `runner.fold_keys`'."""
+    from dcjax.fitting.runner import fold_keys
+
+    one, three = (dcjax.fit(sd1, runs=n, budget=700, seed=5) for n in (1, 3))
+    assert np.array_equal(one.run_params[0], three.run_params[0]) and one.run_of[0] == three.run_of[0]
+    assert len(set(map(float, three.run_of))) == 3  # three different runs
+    assert not np.array_equal(dcjax.fit(sd1, runs=1, budget=700, seed=6).run_params[0], one.run_params[0])
+    inside = jax.jit(lambda seed, ids: jax.vmap(lambda r: jax.random.fold_in(jax.random.PRNGKey(seed), r))(ids))
+    np.testing.assert_array_equal(np.asarray(inside(np.int64(5), np.arange(3))), np.asarray(fold_keys(5, 3)))
 
 
 @pytest.mark.slow

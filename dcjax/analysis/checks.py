@@ -129,20 +129,24 @@ def pulse_width(u: np.ndarray) -> int:
     return int(np.sum(np.abs(u) >= 0.5 * peak)) if peak > 0 else 0
 
 
-def _moves(y: np.ndarray) -> bool:
+def _moves(y: np.ndarray, step: float | None = None, q: float | None = None) -> bool:
     """The channel changes by more than its noise (the range of 10^4 Gaussian samples is ~8 sigma)
-    and its quantisation."""
-    return float(np.ptp(y)) > max(10 * noise_step(y), 3 * quantisation_step(y))
+    and its quantisation (`step`, `q`: its `noise_step` and `quantisation_step`, if known)."""
+    step = noise_step(y) if step is None else step
+    q = quantisation_step(y) if q is None else q
+    return float(np.ptp(y)) > max(10 * step, 3 * q)
 
 
-def input_findings(recording: Recording, model: Model) -> list[Finding]:
+def input_findings(recording: Recording, model: Model, moving: list[str] | None = None) -> list[Finding]:
     """`no-input` (every recorded input zero throughout, or constant while nothing moves) and
-    `pulse` (an input at half its peak in fewer than two samples); module docstring."""
+    `pulse` (an input at half its peak in fewer than two samples); module docstring. `moving`:
+    the measured channels that move (`_moves`), where the caller has found them already."""
     recorded = [c for c in model.inputs if c in recording.channels and c not in recording.constants]
     if not recorded:
         return []
     u = {c: np.asarray(recording[c], float) for c in recorded}
-    moving = [c for c in model.outputs if c in recording.channels and _moves(np.asarray(recording[c], float))]
+    if moving is None:
+        moving = [c for c in model.outputs if c in recording.channels and _moves(np.asarray(recording[c], float))]
     out = []
     if all(not np.any(v) for v in u.values()):
         out.append(Finding("no-input", WARNING, f"input {', '.join(recorded)} is zero throughout"
@@ -172,6 +176,7 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
     elif dt.size > 1 and (spread := float(np.std(dt)) / med) > 0.1:
         out.append(Finding("irregular", WARNING, f"the sample intervals vary by {100 * spread:.0f} % (std / median {med:.3g} s, "
                                                  f"{dt.min():.3g}..{dt.max():.3g} s): simulated on the recorded times"))  # fmt: skip
+    moving = []  # the measured channels that move (`input_findings`)
     for c in model.outputs:
         if c not in recording.channels:
             continue
@@ -180,11 +185,13 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
         if peak == 0:
             out.append(Finding("dead", ERROR, f"column {c!r} is all zero", c))
             continue
+        step, q = noise_step(y), quantisation_step(y)
+        if _moves(y, step, q):
+            moving.append(c)
         flips = _alternating(y, peak)
         if flips is not None:  # (an alternating channel also looks like noise to the near-dead rule)
             out.append(dataclasses.replace(flips, channel=c))
             continue
-        step, q = noise_step(y), quantisation_step(y)
         if peak <= 5 * step or peak <= 3 * q:
             out.append(Finding("near-dead", WARNING, f"peak {peak:.3g} is within a few noise/quantisation steps of zero "
                                                      f"(noise {step:.2g}, step {q:.2g}): a sensor that is all but dead", c))  # fmt: skip
@@ -198,7 +205,7 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
             if cos < -0.5:
                 out.append(Finding("reversed", WARNING, f"{c} opposes {source} (cos {cos:+.2f}) where the model says it follows it: "
                                                         "wired or signed in reverse?", c))  # fmt: skip
-    return out + input_findings(recording, model)
+    return out + input_findings(recording, model, moving)
 
 
 def fleet_findings(recordings: Sequence[Recording], model: Model, ratio: float = 0.05) -> list[list[Finding]]:

@@ -5,8 +5,8 @@ Cells: on one recording, each feature alone ({plain, a local parameter, a sensor
 input delay, a fitted initial state, an initial state from the derivative of a measured
 position, some states compared (`measure`) while the others' columns give their initial values,
 the delayed input held between samples (`zoh`) and held and delayed (`zoh-delay`)}); on two recordings of equal length (stacked), close lengths (padded into one scan) and
-far lengths (one scan each, as a long search keeps them; a short one pads them into buckets,
-`tests/test_joint_buckets.py`), every feature at once ("all": local, offset, delay, fitted initial
+far lengths (one scan each, as a long search keeps them; "far-padded": the cells' short search
+pads them into one, `joint_buckets`, ODE models), every feature at once ("all": local, offset, delay, fitted initial
 state; and on close lengths "all-derivative": the derivative start with the others); each on the
 paper's DC motor (an ODE), the same motor as a discrete-time model (its Euler map) and a
 two-input, three-state PMSM in the dq frame with a per-recording constant input. A cell per
@@ -112,7 +112,7 @@ CASES = {
         measure=("id", "iq"),  # the currents alone: the speed enters both through pp w Lq iq and pp w (Ld id + psi)
     ),  # fmt: skip
 }
-LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120)}
+LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120), "far-padded": (240, 120)}
 FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative", "measure", "zoh", "zoh-delay")
 # Joint fits take the features together (a cell compiles a search and a polish, 5-10 s on 2 cores:
 # one cell per feature and length would not fit the test time): every feature at once, and the
@@ -122,7 +122,7 @@ COMBINED = {
     "all-derivative": ("local", "offset", "delay", "initial-derivative"),
     "zoh-delay": ("zoh", "delay"),  # a held input delayed: the step moves whole
 }
-JOINT = {"equal": ("all",), "close": ("all", "all-derivative"), "far": ("all",)}
+JOINT = {"equal": ("all",), "close": ("all", "all-derivative"), "far": ("all",), "far-padded": ("all",)}
 
 
 def parts(feature: str) -> tuple[str, ...]:
@@ -249,14 +249,20 @@ CELLS = [
     for m in CASES
     for ln in LENGTHS
     for f in (FEATURES if ln == "one" else JOINT[ln])
+    if not (ln == "far-padded" and CASES[m].discrete)  # a map is not padded: "far" is its cell
 ]
 
 
 @pytest.mark.parametrize("model_key,lengths_key,feature", CELLS)
 def test_cell_recovers_the_truth(model_key, lengths_key, feature, monkeypatch):
+    runs, padded_lengths = sys.modules["dcjax.fitting.runs"], []
     if lengths_key == "far":  # a scan each, as a long search keeps them (this short one would pad them into one, `joint_buckets`)
-        monkeypatch.setattr(sys.modules["dcjax.fitting.runs"], "joint_buckets", lambda problems, fes, compile_fes: list(problems))
+        monkeypatch.setattr(runs, "joint_buckets", lambda problems, fes, compile_fes: list(problems))
+    elif lengths_key == "far-padded":  # padded into one scan: seen
+        buckets = runs.joint_buckets
+        monkeypatch.setattr(runs, "joint_buckets", lambda *a: padded_lengths.extend(p.n for p in buckets(*a)) or buckets(*a))
     res, truth = fit_cell(model_key, lengths_key, feature)
+    assert lengths_key != "far-padded" or padded_lengths == [240, 240], padded_lengths
     assert set(res.best_values) == set(truth), (sorted(res.best_values), sorted(truth))
     err = errors(res, truth)
     if CASES[model_key].discrete and {"zoh", "delay"} <= set(parts(feature)):

@@ -259,3 +259,19 @@ def test_fit_each_checks_each_recording_unless_told_not_to(sd1):
     (a,) = dcjax.fit_each([rev], params="table4", runs=1, budget=140)
     (b,) = dcjax.fit_each([rev], params="table4", runs=1, budget=140, checks=False)
     assert "reversed:omega" in {f.label for f in a.checks} and not b.checks  # (SD1's current is a spike: a weak cosine)
+
+
+def test_median_is_numpys_to_the_bit():
+    """The checks' one-partition median against `np.median`: odd and even lengths, ties, zeros of
+    either sign, NaN."""
+    from dcjax.analysis.checks import median
+
+    rng = np.random.default_rng(1)
+    for n in [*range(1, 24), 699, 700]:
+        for kind in range(4):
+            a = rng.normal(size=n) * 10 ** rng.uniform(-5, 5)
+            a = np.round(a) if kind == 1 else -np.zeros(n) if kind == 2 else a
+            if kind == 3 and n > 2:
+                a[rng.integers(n)] = np.nan
+            want = np.median(a)
+            assert np.float64(median(a)).tobytes() == np.float64(want).tobytes() or (np.isnan(want) and np.isnan(median(a))), (n, kind)

@@ -171,6 +171,30 @@ def test_evosax_adapter(name):
     assert np.all((x >= 0) & (x <= 1))
 
 
+def test_rank_weights_are_evosax_weights_to_the_bit_ties_and_nan_included(monkeypatch):
+    """dcjax's pairwise ranks against evosax's own `weights_fitness_shaping_fn` (rankdata's sorts):
+    the same weights on fitness with ties, +inf and NaN, and a CMA-ES run the same bits with either."""
+    import evosax.algorithms as ea
+    from evosax.core.fitness_shaping import weights_fitness_shaping_fn
+
+    from dcjax.strategies.evosax_adapter import rank_weights
+
+    params = ea.algorithms["CMA_ES"](population_size=12, solution=jnp.zeros(3)).default_params
+    rng = np.random.default_rng(0)
+    fits = rng.integers(0, 4, (300, 12)).astype(float)
+    fits[rng.random(fits.shape) < 0.15] = np.inf
+    fits[rng.random(fits.shape) < 0.1] = np.nan
+    fits = np.concatenate([fits, np.full((1, 12), np.nan), rng.normal(size=(20, 12))])
+    ours = jax.vmap(lambda f: rank_weights(None, f, None, params))(jnp.asarray(fits))
+    theirs = jax.vmap(lambda f: weights_fitness_shaping_fn(None, f, None, params))(jnp.asarray(fits))
+    np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
+    with_ours = _run("CMA_ES", sphere, 1200)
+    monkeypatch.setattr(Evosax, "_algo", lambda self, dim: ea.algorithms[self.name](population_size=self.pop_size, solution=jnp.zeros(dim)))
+    with_theirs = _run("CMA_ES", sphere, 1200)
+    np.testing.assert_array_equal(np.asarray(with_ours.best_x), np.asarray(with_theirs.best_x))
+    np.testing.assert_array_equal(np.asarray(with_ours.history), np.asarray(with_theirs.history))
+
+
 @pytest.mark.slow
 def test_evosax_de_cross_checks_de_best_1_bin():
     """evosax's DifferentialEvolution with elitism is DE/best/1/bin; with F = 0.6, CR = 0.8 both

@@ -68,6 +68,20 @@ def from_error(error: Exception) -> Finding | None:
     return None
 
 
+def median(a: np.ndarray) -> float:
+    """`np.median` of a 1-D float array, the same value (the middle sample, or the mean of the two
+    middle ones; NaN where any is NaN) from one `np.partition`: 2 us instead of 10 for 700 samples,
+    three times a recording's checks."""
+    n = a.size
+    if n == 0 or np.isnan(a).any():
+        return float(np.median(a)) if n else float("nan")
+    half = n // 2
+    if n % 2:
+        return float(np.partition(a, half)[half]) + 0.0  # (+0.0: as np.median, no negative zero)
+    part = np.partition(a, (half - 1, half))
+    return float((part[half - 1] + part[half]) / 2.0) + 0.0
+
+
 def noise_step(y: np.ndarray, order: int = 1) -> float:
     """The channel's white-noise sd from its `order`-th differences: 1.4826 MAD / sqrt(C(2k, k))
     (white noise of sd s gives k-th differences of sd s sqrt(C(2k, k)): sqrt 2 for the first,
@@ -77,7 +91,7 @@ def noise_step(y: np.ndarray, order: int = 1) -> float:
     d = np.diff(np.asarray(y, float), order)
     if d.size == 0:
         return 0.0
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(math.comb(2 * order, order)))
+    return float(1.4826 * median(np.abs(d - median(d))) / np.sqrt(math.comb(2 * order, order)))
 
 
 def quantisation_step(y: np.ndarray) -> float:
@@ -105,7 +119,7 @@ def _alternating(y: np.ndarray, peak: float) -> Finding | None:
     return None
 
 
-def _saturated(y: np.ndarray, peak: float) -> Finding | None:
+def _saturated(y: np.ndarray, peak: float, q: float | None = None) -> Finding | None:
     k = int(np.argmax(np.abs(y)))
     ext = y[k]
     at = np.abs(y - ext) <= 1e-12 * abs(ext)
@@ -118,7 +132,7 @@ def _saturated(y: np.ndarray, peak: float) -> Finding | None:
         return None
     entry = abs(y[starts[j]] - y[starts[j] - 3])
     steepest = float(np.max(np.abs(y[3:] - y[:-3])))
-    if entry < 0.2 * steepest or entry <= 3 * quantisation_step(y):  # an approach to a steady state, or a quantised one
+    if entry < 0.2 * steepest or entry <= 3 * (quantisation_step(y) if q is None else q):  # an approach to a steady state, or a quantised one
         return None
     return Finding("saturated", WARNING, f"held at {ext:.6g} for {int(length[j])} samples from t index {int(starts[j])} (clipped?)")
 
@@ -167,7 +181,7 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
     out: list[Finding] = []
     t = recording.t
     dt = np.diff(t)
-    med = float(np.median(dt))
+    med = median(dt)
     long = dt > 5 * med
     if np.any(long):
         k = int(np.argmax(dt))
@@ -196,7 +210,7 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
             out.append(Finding("near-dead", WARNING, f"peak {peak:.3g} is within a few noise/quantisation steps of zero "
                                                      f"(noise {step:.2g}, step {q:.2g}): a sensor that is all but dead", c))  # fmt: skip
             continue
-        saturated = _saturated(y, peak)
+        saturated = _saturated(y, peak, q)
         if saturated is not None:
             out.append(dataclasses.replace(saturated, channel=c))
         source = model.follows.get(c)

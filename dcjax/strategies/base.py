@@ -343,8 +343,8 @@ def run_batch(
 
     def body(loop):
         i, c = loop
-        go = active(c)
-        c = masked(go, jax.vmap(lambda c: run_iteration(strategy, c, fn, budget))(c), c)
+        new = jax.vmap(lambda c: run_iteration(strategy, c, fn, budget))(c)
+        c = new if n_runs == 1 else masked(active(c), new, c)  # one run: the loop runs only while it is active
         if report is not None:
             send = report
             done = jnp.where(active(c), jnp.minimum(jnp.maximum(c.it / t_max, c.state.fes / budget), 1.0), 1.0)

@@ -5,10 +5,14 @@ The algorithm searches the unit cube; candidates are clipped into it before eval
 clipped point is what is told back, so every returned parameter respects the bounds. One
 generation costs `pop_size` FEs (the initial population of a population-based algorithm too)."""
 
+import inspect
+
 import equinox as eqx
 import evosax.algorithms as ea
 import jax
 import jax.numpy as jnp
+from evosax.core.fitness_shaping import weights_fitness_shaping_fn
+from jaxtyping import Array, Float
 
 from .base import State, Strategy, evaluate, initial_state
 
@@ -32,7 +36,11 @@ class Evosax(Strategy):
             raise ValueError(f"unknown evosax algorithm {self.name!r}; choose from {evosax_names()}")
 
     def _algo(self, dim: int):
-        return ea.algorithms[self.name](population_size=self.pop_size, solution=jnp.zeros(dim))
+        cls = ea.algorithms[self.name]
+        shaping = inspect.signature(cls.__init__).parameters.get("fitness_shaping_fn")
+        if shaping is not None and shaping.default is weights_fitness_shaping_fn:
+            return cls(population_size=self.pop_size, solution=jnp.zeros(dim), fitness_shaping_fn=rank_weights)
+        return cls(population_size=self.pop_size, solution=jnp.zeros(dim))
 
     def _params(self, algo):
         p = algo.default_params
@@ -76,6 +84,20 @@ class Evosax(Strategy):
             excess = jnp.sum((raw - x) ** 2, axis=-1)
             es, _ = algo.tell(kt, raw, fit * (1.0 + PENALTY * excess), es, params)
         return state.replace(pop=x, fit=fit, aux=es)
+
+
+def rank_weights(population, fitness: Float[Array, " P"], state, params) -> Float[Array, " P"]:
+    """evosax's `weights_fitness_shaping_fn` (the recombination weights by rank, `params.weights`)
+    with the ranks counted pairwise instead of by `jax.scipy.stats.rankdata`'s sorts: rank_i =
+    #{j: f_j < f_i} + (#{j: f_j = f_i} - 1) / 2 (NaN as +inf), the same average rank of ties,
+    truncated to an index as evosax does, so the same weights to the bit. A CMA-ES search program
+    compiles ~0.08 s faster (476 servo logs: 0.81 -> 0.73 s, `python -m
+    experiments.bench_servo_fleet`); P^2 comparisons cost nothing at a population of 12."""
+    f = jnp.where(jnp.isnan(fitness), jnp.inf, fitness)
+    below = jnp.sum(f[None, :] < f[:, None], axis=-1)
+    ties = jnp.sum(f[None, :] == f[:, None], axis=-1)
+    weights = params.weights[..., (below + 0.5 * (ties - 1.0)).astype(jnp.int32)]
+    return jnp.where(jnp.all(jnp.isnan(fitness), axis=-1, keepdims=True), jnp.zeros_like(weights), weights)
 
 
 def self_is_pop(algo) -> bool:

@@ -132,9 +132,8 @@ def _saturated(y: np.ndarray, peak: float, q: float | None = None) -> Finding | 
         return None
     entry = abs(y[starts[j]] - y[starts[j] - 3])
     steepest = float(np.max(np.abs(y[3:] - y[:-3])))
-    if entry < 0.2 * steepest or entry <= 3 * (
-        quantisation_step(y) if q is None else q
-    ):  # an approach to a steady state, or a quantised one
+    q = (quantisation_step(y) if q is None else q) if entry >= 0.2 * steepest else 0.0
+    if entry < 0.2 * steepest or entry <= 3 * q:  # an approach to a steady state, or a quantised one
         return None
     return Finding("saturated", WARNING, f"held at {ext:.6g} for {int(length[j])} samples from t index {int(starts[j])} (clipped?)")
 

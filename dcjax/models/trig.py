@@ -10,7 +10,8 @@ are additions, multiplications and selections, which vectorise:
                                            exact for |k| < 2^20)
     sin r, cos r on |r| <= pi/4          (the minimax polynomials of fdlibm's `__kernel_sin`
                                            and `__kernel_cos`, Sun Microsystems 1993)
-    sin x = (sin r, cos r, -sin r, -cos r)[k mod 4]
+    sin x = (sin r, cos r, -sin r, -cos r)[k mod 4]   (k's two low bits: an integer's and, not a
+                                                       float quadrant's floor and three compares)
 
 Against NumPy (the C library): within 1.2e-16 absolute and, where |sin x| > 1e-3, 2 ulp, on
 |x| <= 1e9 (`tests/test_trig.py`); exact at 0 (either sign gives +0); NaN where x is not
@@ -35,10 +36,10 @@ def _horner(z, coefficients):
 
 
 def _reduced(x):
-    """(r, quadrant): x = r + k pi/2 with |r| <= pi/4, quadrant = k mod 4 (as a float)."""
+    """(r, k): x = r + k pi/2 with |r| <= pi/4, k as an integer (its low two bits: the quadrant)."""
     k = jnp.round(x * TWO_OVER_PI)
     r = ((x - k * PIO2[0]) - k * PIO2[1]) - k * PIO2[2]
-    return r, k - 4.0 * jnp.floor(0.25 * k)
+    return r, k.astype(jnp.int64)
 
 
 def _kernels(r):
@@ -54,17 +55,19 @@ def _kernels(r):
 def sin(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
     """The sine of `x` (radians), vectorisable on the CPU (module docstring)."""
     x = jnp.asarray(x, float)
-    r, n = _reduced(x)
+    r, k = _reduced(x)
     s, c = _kernels(r)
-    return jnp.where(n == 0.0, s, jnp.where(n == 1.0, c, jnp.where(n == 2.0, -s, -c)))
+    v = jnp.where((k & 1) == 1, c, s)
+    return jnp.where((k & 2) == 2, -v, v)  # quadrants 2 and 3
 
 
 def cos(x: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
     """The cosine of `x` (radians), vectorisable on the CPU (module docstring)."""
     x = jnp.asarray(x, float)
-    r, n = _reduced(x)
+    r, k = _reduced(x)
     s, c = _kernels(r)
-    return jnp.where(n == 0.0, c, jnp.where(n == 1.0, -s, jnp.where(n == 2.0, -c, s)))
+    v = jnp.where((k & 1) == 1, s, c)
+    return jnp.where(((k + 1) & 2) == 2, -v, v)  # quadrants 1 and 2
 
 
 __all__ = ["cos", "sin"]

@@ -200,3 +200,20 @@ def test_a_loggers_file_fits_through_the_cli(tmp_path, sd1, capsys):
     assert main(["fit", str(tmp_path / "step1.csv"), *args, "--budget", "1400", "--out", str(tmp_path / "f")]) == 0
     assert f"dropped 1 of {len(sd1)} rows" in capsys.readouterr().err
     assert main(["validate", str(tmp_path / "f" / "result.json"), str(tmp_path / "step1.csv"), "--out", str(tmp_path / "v")]) == 0
+
+
+def test_row_values_agree_with_the_field_rules():
+    """`read_table`'s one-pass row reading against its field rules (`_numeric`, `_number`): the
+    same rows taken as data, the same numbers, missing fields as NaN, in both decimal styles."""
+    from dcjax.io.loading import _number, _numeric, _row_values
+
+    fields = ["1", "-2.5e3", " ", "", "nan", "NaN", "NA", "n/a", "null", "None", "inf", "-inf", "1,5", "2.5", "x", "1e", "--", "1_000"]
+    rng = np.random.default_rng(0)
+    for decimal in (".", ","):
+        for _ in range(2000):
+            row = [fields[k].strip() for k in rng.integers(len(fields), size=rng.integers(1, 4))]
+            got = _row_values(row, decimal)
+            if not _numeric(row, decimal):
+                assert got is None, (row, decimal)
+            else:
+                np.testing.assert_array_equal(got, [_number(f, decimal) for f in row])

@@ -145,6 +145,26 @@ def test_bounds_auto_holds_the_preset_and_the_estimate(sd1):
     assert set(start) >= {"Ra", "La", "cm", "J"}
 
 
+def test_bounds_auto_of_a_long_joint_fit_estimates_a_spread_few(sd1, monkeypatch):
+    """A joint fit of more recordings than `AUTO_RECORDINGS` is estimated on that many, spread
+    over it (the first and the last among them), its ranges the union of theirs; a short one on
+    every recording."""
+    from dcjax.analysis import estimate
+
+    recs = [sd1.replace(name=f"r{k}", u_a=sd1.u_a * (1.0 + 0.01 * k)) for k in range(19)]
+    seen = []
+    real = estimate.initial_estimate
+    monkeypatch.setattr(estimate, "initial_estimate", lambda r, m: seen.append(r.name) or real(r, m))
+    bounds, start, ests = auto_bounds(recs)
+    picked = [f"r{k}" for k in np.unique(np.round(np.linspace(0, 18, estimate.AUTO_RECORDINGS)).astype(int))]
+    assert seen == picked and len(seen) == estimate.AUTO_RECORDINGS and seen[0] == "r0" and seen[-1] == "r18"
+    np.testing.assert_array_equal(bounds.lower, np.min([e.lower for e in ests], axis=0))
+    np.testing.assert_array_equal(bounds.upper, np.max([e.upper for e in ests], axis=0))
+    seen.clear()
+    auto_bounds(recs[:3])
+    assert seen == ["r0", "r1", "r2"]
+
+
 def test_bounds_auto_fits_sd1_exactly(sd1):
     res = dcjax.fit(sd1, params="auto", runs=4, seed=3)
     assert np.all(res.run_of <= 1e-15)

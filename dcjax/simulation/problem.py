@@ -117,8 +117,7 @@ def make_problem(
     integrator = integrator_for(model, integrator)
     loss = get_loss(loss)
     check_positive_int("unroll", unroll)
-    outs, inputs, states = model.outputs, tuple(model.inputs), tuple(model.states)  # (read once: a module's attributes cost ~0.5 us each)
-    channels, constants = recording.channels, recording.constants
+    outs = model.outputs
     if weights is None:
         weights = (1.0,) * len(outs)
     try:
@@ -129,22 +128,18 @@ def make_problem(
         raise ValueError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}")
     if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() == 0:
         raise ValueError(f"weights must be non-negative, finite and not all zero, got {weights!r}")
-    missing = [c for c in inputs + outs if not (c in channels or (c in inputs and c in constants))]
+    missing = [c for c in model.channels if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
     if missing:
-        consts = f" and constants {', '.join(constants)}" if constants else ""
+        consts = f" and constants {', '.join(recording.constants)}" if recording.constants else ""
         raise ValueError(
             f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has "
-            f"{', '.join(channels)}{consts} (the model's inputs {', '.join(inputs) or 'none'} may also be "
+            f"{', '.join(recording.channels)}{consts} (the model's inputs {', '.join(model.inputs) or 'none'} may also be "
             'constants: --const NAME=V or the sidecar\'s "constants")'
         )
     t = recording.t
-    u = (
-        np.stack([channels[c] if c in channels else np.full(t.shape, constants[c]) for c in inputs], axis=1)
-        if inputs
-        else np.zeros((len(t), 0))
-    )
+    u = np.stack([recording[c] for c in model.inputs], axis=1) if model.inputs else np.zeros((len(t), 0))
     if voltage is not None:
-        if not inputs:
+        if not model.inputs:
             raise ValueError(f"model {model.name} has no input to set a constant voltage on")
         u = u.copy()
         u[:, 0] = float(voltage)
@@ -156,16 +151,16 @@ def make_problem(
     limit = recording.limit
     if limit is not None and not limit > 0:
         raise ValueError(f"current limit must be positive, got {limit}")
-    y = np.stack([channels[c] for c in outs], axis=1)
+    y = np.stack([recording[c] for c in outs], axis=1)
     peak = np.max(np.abs(y), axis=0)
     for c, m in zip(outs, peak):
         if not m > 0:
             raise DataError("dead", f"{recording._where()}column {c!r} is all zero (the objective divides by its maximum)")
     init = dict(initial or {})
-    bad = [s for s in init if s not in states]
+    bad = [s for s in init if s not in model.states]
     if bad:
-        raise ValueError(f"unknown state(s) {bad} for model {model.name}; its states are {states}")
-    y0 = [float(init[s]) if s in init else float(channels[s][0]) if s in channels else 0.0 for s in states]
+        raise ValueError(f"unknown state(s) {bad} for model {model.name}; its states are {model.states}")
+    y0 = [float(init[s]) if s in init else float(recording[s][0]) if s in recording.channels else 0.0 for s in model.states]
     n = t.shape[0]
 
     f64 = _host
@@ -184,7 +179,7 @@ def make_problem(
         loss=loss,
         knots=knots_per_interval(t),
         held=held,
-        steady=tuple(j for j, c in enumerate(inputs) if (j == 0 and voltage is not None) or c not in channels),
+        steady=tuple(j for j, c in enumerate(model.inputs) if (j == 0 and voltage is not None) or c not in recording.channels),
     )
 
 

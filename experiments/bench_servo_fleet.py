@@ -21,6 +21,10 @@ process's (both tools; `ru_maxrss`).
 
     /work/peers/bin/python -m experiments.bench_servo_fleet [--trials 5000] [--logs 476] [--cache DIR]
 
+With `--write DIR` it only writes the logs as CSV files (t, q_goal, q) with their constants in JSON
+sidecars, for the command line: `dcjax fit DIR/*.csv --model servo --loss l1 --normalize none
+--initial q=measured,dq=0`.
+
 (needs optuna and cmaes: a benchmark venv beside dcjax; `/work/peers` here.)"""
 
 import argparse
@@ -73,6 +77,19 @@ def logs(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     q0 = np.round(rng.uniform(-0.3, 0.3, n) / step) * step  # at rest on an encoder count
     q = simulate(TRUTH, goal, const, q0)
     return goal, const, np.round(q / step) * step
+
+
+def write_logs(folder: str, goal, const, q) -> None:
+    """Every log as `log%03d.csv` (t, q_goal, q) with its constants in `log%03d.json`."""
+    import json
+    from pathlib import Path
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    t = DT * np.arange(SAMPLES)
+    for i in range(len(q)):
+        np.savetxt(out / f"log{i:03d}.csv", np.column_stack([t, goal[i], q[i]]), delimiter=",", header="t,q_goal,q", comments="")
+        (out / f"log{i:03d}.json").write_text(json.dumps({"constants": dict(zip(("kp", "vin", "m", "l", "m_a"), map(float, const[i])))}))
 
 
 def objective(p: dict, goal, const, q) -> float:
@@ -134,7 +151,12 @@ def main():
     )
     ap.add_argument("--dcjax", nargs="+", default=["cma-es:1:1000", "cma-es:1:2000", "cma-es:1:5000", "cma-es:4:5000", "de-rand-1-exp:4:20000"],
                     metavar="METHOD:RUNS:BUDGET")  # fmt: skip
+    ap.add_argument("--write", metavar="DIR", help="only write the logs as CSV files and sidecars to DIR (for the command line)")
     args = ap.parse_args()
+    if args.write:
+        write_logs(args.write, *logs(args.logs, args.seed))
+        print(f"wrote {args.logs} logs to {args.write}")
+        return
     import dcjax
 
     dcjax.use_host_devices()  # as the CLI starts

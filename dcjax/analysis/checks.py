@@ -119,7 +119,8 @@ def _alternating(y: np.ndarray, peak: float) -> Finding | None:
     return None
 
 
-def _saturated(y: np.ndarray, peak: float, q: float | None = None) -> Finding | None:
+def _saturated(y: np.ndarray, peak: float, q: float) -> Finding | None:
+    """A run at the channel's extreme entered steeply (`q`: its `quantisation_step`)."""
     k = int(np.argmax(np.abs(y)))
     ext = y[k]
     at = np.abs(y - ext) <= 1e-12 * abs(ext)
@@ -132,7 +133,6 @@ def _saturated(y: np.ndarray, peak: float, q: float | None = None) -> Finding | 
         return None
     entry = abs(y[starts[j]] - y[starts[j] - 3])
     steepest = float(np.max(np.abs(y[3:] - y[:-3])))
-    q = (quantisation_step(y) if q is None else q) if entry >= 0.2 * steepest else 0.0
     if entry < 0.2 * steepest or entry <= 3 * q:  # an approach to a steady state, or a quantised one
         return None
     return Finding("saturated", WARNING, f"held at {ext:.6g} for {int(length[j])} samples from t index {int(starts[j])} (clipped?)")

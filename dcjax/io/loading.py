@@ -26,26 +26,10 @@ def _split(line: str, delim: str | None) -> list[str]:
     return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
 
 
-def _number(field: str, decimal: str) -> float:
-    if field.lower() in MISSING:
-        return float("nan")
-    return float(field.replace(decimal, ".") if decimal != "." else field)
-
-
-def _numeric(fields: list[str], decimal: str) -> bool:
-    if all(f.lower() in MISSING for f in fields):
-        return False
-    try:
-        for f in fields:
-            _number(f, decimal)
-    except ValueError:
-        return False
-    return True
-
-
 def _row_values(fields: list[str], decimal: str) -> list[float] | None:
-    """The row's numbers (a `MISSING` field as NaN, as `_number`), or None where `_numeric` is
-    False: one pass that both tests and converts (a file of 700 rows x 3: 2.2 -> 1.4 ms)."""
+    """The row's numbers (a `MISSING` field as NaN), or None where it is not a data row: a field
+    neither a number nor missing, or every field missing. One pass that both tests and converts
+    (a file of 700 rows x 3: 2.2 -> 1.4 ms, against testing every row and converting it again)."""
     out = []
     for f in fields:
         try:
@@ -74,7 +58,7 @@ def _detect_delimiter(lines: list[str], decimal: str) -> str | None:
         if d == "," and decimal == ",":
             continue
         last = _split(lines[-1], d)
-        if len(last) >= 2 and _numeric(last, decimal):
+        if len(last) >= 2 and _row_values(last, decimal) is not None:
             return d
     raise ValueError("cannot detect the delimiter (tried ';', tab, ',', whitespace); give delimiter=/--delimiter")
 

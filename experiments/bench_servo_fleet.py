@@ -39,6 +39,7 @@ BOX = {"kt": (0.5, 5.0), "R": (0.5, 10.0), "armature": (1e-4, 0.05), "friction_b
 TRUTH = {"kt": 1.6, "R": 2.2, "armature": 0.008, "friction_base": 0.05, "friction_viscous": 0.03}
 MASSES, LENGTHS = (0.2, 0.5, 1.0, 1.5), (0.1, 0.2)  # 8 setups
 DT, SAMPLES, COUNTS = 0.01, 700, 4096
+CONSTANTS = ("kp", "vin", "m", "l", "m_a")  # a log's constants, the columns of `const`
 
 
 def simulate(p: dict, goal: np.ndarray, const: np.ndarray, q0: np.ndarray) -> np.ndarray:
@@ -89,7 +90,7 @@ def write_logs(folder: str, goal, const, q) -> None:
     t = DT * np.arange(SAMPLES)
     for i in range(len(q)):
         np.savetxt(out / f"log{i:03d}.csv", np.column_stack([t, goal[i], q[i]]), delimiter=",", header="t,q_goal,q", comments="")
-        (out / f"log{i:03d}.json").write_text(json.dumps({"constants": dict(zip(("kp", "vin", "m", "l", "m_a"), map(float, const[i])))}))
+        (out / f"log{i:03d}.json").write_text(json.dumps({"constants": dict(zip(CONSTANTS, map(float, const[i])))}))
 
 
 def objective(p: dict, goal, const, q) -> float:
@@ -124,8 +125,7 @@ def dcjax_case(goal, const, q) -> tuple:
     import dcjax
 
     t = DT * np.arange(SAMPLES)
-    names = ("kp", "vin", "m", "l", "m_a")
-    recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(names, map(float, const[i]))),
+    recs = [dcjax.Recording(t=t, channels={"q_goal": goal[i], "q": q[i]}, constants=dict(zip(CONSTANTS, map(float, const[i]))),
                             name=f"log{i}") for i in range(len(q))]  # fmt: skip
     box = dcjax.Parameters([dcjax.Parameter(k, min=lo, max=hi) for k, (lo, hi) in BOX.items()])
     return recs, box, dcjax.Observation(loss=dcjax.L1(normalize="none"), initial={"q": "measured", "dq": 0.0})

@@ -136,7 +136,7 @@ class SampleMap(Integrator):
 
 # The defaults `integrator_for` gives, built once (an equinox module's construction costs ~0.07 ms:
 # 476 recordings' problems spent 35 ms building the same `SampleMap`).
-DEFAULT = RK4()
+DEFAULT_RK4 = RK4()
 SAMPLE_MAP = SampleMap()
 
 
@@ -153,7 +153,7 @@ def integrator_for(model, integrator: "Integrator | None") -> Integrator:
         return integrator if integrator is not None else SAMPLE_MAP
     if isinstance(integrator, SampleMap):
         raise ValueError(f"model {model.name} is not a discrete-time model: it needs an integrator (Euler, RK4, ...), not SampleMap")
-    return DEFAULT if integrator is None else integrator
+    return DEFAULT_RK4 if integrator is None else integrator
 
 
 class AutoSubsteps(eqx.Module):

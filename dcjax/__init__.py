@@ -24,7 +24,8 @@ from .devices import use_compilation_cache, use_compiled_loops, use_host_devices
 from .fitting.each import fit_each  # noqa: E402
 from .fitting.fit import fit  # noqa: E402
 from .fitting.observation import Observation  # noqa: E402
-from .fitting.result import FailedFit, FitResult, load_result  # noqa: E402
+from .fitting.restore import load_result  # noqa: E402
+from .fitting.result import FailedFit, FitResult  # noqa: E402
 from .fitting.setup import with_weights  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402

@@ -31,7 +31,7 @@ def run(files: list[str], out: Path, runs: int, plots: str, cache: Path | None =
     env = {**os.environ, "DCJAX_NO_CACHE": "1"} if cache is None else {**os.environ, "DCJAX_CACHE_DIR": str(cache), "DCJAX_NO_CACHE": ""}
     cmd = [sys.executable, "-m", "dcjax", "fit", "--each", *files, "--bounds", "auto", "--runs", str(runs), "--plots", plots]
     t0 = time.perf_counter()
-    p = subprocess.run([*cmd, "--out", str(out), "--no-progress"], capture_output=True, text=True, env=env)
+    p = subprocess.run([*cmd, "--out", str(out), "--overwrite", "--no-progress"], capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     last = p.stdout.strip().splitlines()[-1]
     return wall, {k: float(v) for k, v in re.findall(r"([a-z+]+) ([0-9.]+) s", last)}

@@ -120,7 +120,7 @@ def main():
             print(f"initial_estimate, {cls}: first file {first:.2f} s (with compilation), then {rest:.2f} s a file")
         out = root / "out"
         cmd = [sys.executable, "-m", "dcjax", "fit", "--each", *map(str, paths), "--model", f"{root / 'data' / 'friction.py'}:Friction"]
-        cmd += ["--runs", str(args.runs), "--out", str(out), "--no-progress"]
+        cmd += ["--runs", str(args.runs), "--out", str(out), "--overwrite", "--no-progress"]
         t0 = time.perf_counter()
         p = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "DCJAX_NO_CACHE": "1"})
         last = p.stdout.strip().splitlines()[-1] if p.stdout.strip() else p.stderr

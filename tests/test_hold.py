@@ -1,6 +1,6 @@
 """An input held between samples (`Observation(hold={"u_a": "zoh"})`, `dcjax fit --hold u_a=zoh`):
 the simulation equals the independent NumPy reference's zero-order hold, delayed or not, for an ODE
-and a discrete-time model; the option is checked, recorded and refused with `--nd auto`."""
+and a discrete-time model; the option is checked, recorded and taken by `--nd auto`."""
 
 import numpy as np
 import pytest
@@ -46,7 +46,7 @@ def test_a_held_input_equals_the_references_zero_order_hold(delay):
     assert np.max(np.abs(held_sim - linear)) > 1.0  # the hold matters: the two readings differ by rad/s
 
 
-def test_hold_is_checked_recorded_and_refused_with_nd_auto():
+def test_hold_is_checked_recorded_and_taken_by_nd_auto():
     obs = dcjax.Observation(hold={"u_a": "ZOH"})
     assert obs.hold == {"u_a": "zoh"} and not obs.plain
     assert dcjax.Observation.from_settings(obs.to_dict()).hold == {"u_a": "zoh"}
@@ -57,5 +57,4 @@ def test_hold_is_checked_recorded_and_refused_with_nd_auto():
         plan("dc", observation=dcjax.Observation(hold={"uq": "zoh"}))
     _, _, rec = _stepped(40)
     p = plan("dc", observation=obs, integrator=dcjax.AutoSubsteps())
-    with pytest.raises(ValueError, match="nd auto: not with .* held inputs"):
-        p.setup([rec], "table4")
+    assert p.setup([rec], "table4").problems[0].held == (0,)  # nd auto's reference holds it too (tests/test_matrix.py)

@@ -50,7 +50,7 @@ def test_noise_level_is_the_white_noises_sd_and_a_clean_sd_channel_is_clean(sd1)
 
 def test_the_default_fits_a_noisy_start_and_keeps_a_clean_ones_first_sample(sd1):
     """Decided per state from the data, with a note; `--initial S=measured` keeps the first sample;
-    beyond MAX_FITTED_STARTS values the first samples stay, with a note saying so; nd auto refuses."""
+    beyond MAX_FITTED_STARTS values the first samples stay, with a note saying so; nd auto takes them."""
     model = dcjax.get_model("pmsm")
     recs = recordings(0.005)
     obs = dcjax.Observation().with_defaults(model.outputs, recs)
@@ -62,9 +62,9 @@ def test_the_default_fits_a_noisy_start_and_keeps_a_clean_ones_first_sample(sd1)
     assert many.initial == {} and all("starts at its first sample (54 initial values > 16)" in n for n in many.notes(model, recs))
     clean = dcjax.Observation().with_defaults(dcjax.DC().outputs, [sd1])
     assert clean.initial == {} and clean.chosen == {} and clean.plain
-    md1 = dcjax.datasets.load("MD1")  # emulated sensors: both channels noisy; nd auto refuses their fitted starts, naming the way out
-    with pytest.raises(ValueError, match="the noisy i_a, omega start fitted by default: --initial i_a=measured,omega=measured"):
-        dcjax.fitting.setup.plan("dc", integrator=dcjax.AutoSubsteps()).setup([md1], "table8")
+    md1 = dcjax.datasets.load("MD1")  # emulated sensors: both channels noisy; nd auto refits with their fitted starts
+    auto = dcjax.fitting.setup.plan("dc", integrator=dcjax.AutoSubsteps()).setup([md1], "table8")
+    assert auto.space.names[-2:] == ("y0_i_a", "y0_omega")
     space = dcjax.fitting.setup.plan("pmsm").setup(recs, None).space  # a defaulted y0's range: first samples +- 8 noise sd
     k = space.names.index("y0_iq[0]")
     lo, hi = float(space.bounds.lower[k]), float(space.bounds.upper[k])

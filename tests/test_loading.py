@@ -179,7 +179,9 @@ def test_a_loggers_file_reads_with_flags_and_no_editing(tmp_path, sd1):
     rec = sd1.replace(t=t)
     write_logger(tmp_path / "step1.csv", rec, holes={40: 2, 41: 3, 300: 2})
     cols = {"t": "time", "u_a": "voltage", "i_a": "current", "omega": "speed"}
-    with pytest.raises(ValueError, match=r"column 'i_a' has NaN/inf at row 40 \(2 in all; .*--drop-nan drops such rows\)"):
+    with pytest.raises(
+        ValueError, match=r"step1.csv: line 43: i_a is NaN \(a missing or non-finite field; 3 rows in all; .*--drop-nan drops such rows\)"
+    ):
         load_recording(tmp_path / "step1.csv", columns=cols)
     with pytest.warns(UserWarning, match=rf"step1.csv: dropped 3 of {len(sd1)} rows with NaN/inf \(in i_a, omega\)"):
         got = load_recording(tmp_path / "step1.csv", columns=cols, drop_nan=True)
@@ -204,9 +206,10 @@ def test_a_loggers_file_fits_through_the_cli(tmp_path, sd1, capsys):
 
 def test_row_values_follow_the_field_rules():
     """`read_table`'s one-pass row reading against the field rules written out here: a missing
-    field (MISSING, any case) is NaN, any other must be a number (the decimal separator given),
-    and a row of missing fields only is not data."""
-    from dcjax.io.loading import MISSING, _row_values
+    field (MISSING, any case) is NaN, any other must be a number (the decimal separator given); a
+    row of missing fields only is a row of NaN (a logger's gap between bursts)."""
+    from dcjax.io.table import MISSING
+    from dcjax.io.table import row_values as _row_values
 
     def reference(row, decimal):
         out = []
@@ -218,7 +221,7 @@ def test_row_values_follow_the_field_rules():
                 out.append(float(f.replace(decimal, ".") if decimal != "." else f))
             except ValueError:
                 return None
-        return None if all(f.lower() in MISSING for f in row) else out
+        return out
 
     fields = ["1", "-2.5e3", " ", "", "nan", "NaN", "NA", "n/a", "null", "None", "inf", "-inf", "1,5", "2.5", "x", "1e", "--", "1_000"]
     rng = np.random.default_rng(0)

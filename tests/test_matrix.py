@@ -351,6 +351,41 @@ def test_bucket_tops_are_grid_lengths_the_same_for_similar_folders():
         assert sorted(set(ta.values())) == sorted(set(tb.values())), (ta, tb)
 
 
+AUTO_CELLS = [("dc", "one", f) for f in ("plain", "offset", "delay", "initial-fit", "zoh", "zoh-delay")] + [
+    ("dc", ln, "all") for ln in ("equal", "far")] + [("pmsm", "one", "delay"), ("pmsm", "one", "measure")]  # fmt: skip
+
+
+@pytest.mark.parametrize("model_key,lengths_key,feature", [pytest.param(*c, id="-".join(c), marks=() if c == ("dc", "equal", "all")
+                                                                        else pytest.mark.slow) for c in AUTO_CELLS])  # fmt: skip
+def test_nd_autos_reference_carries_every_feature(model_key, lengths_key, feature):
+    """`AutoSubsteps`' adaptive diffrax reference (`dcjax.simulation.diffrax_reference`) at the
+    truth, each recording with its own parameters (local), fitted initial state, delayed and held
+    inputs, equals the independent NumPy reference's data (offsets added) to 1e-8 of the peaks;
+    and a fit with `AutoSubsteps` takes the features (once refused)."""
+    from dcjax.fitting.setup import plan
+    from dcjax.simulation.diffrax_reference import reference_simulate_jit
+
+    case = CASES[model_key]
+    recs, truth = data(model_key, lengths_key, feature)
+    model = case.model
+    setup = plan(model, observation=observation(case, feature), integrator=dcjax.AutoSubsteps(dcjax.RK4())).setup(
+        list(recs), start_parameters(model, truth, feature, case, len(recs))
+    )
+    x = jnp.asarray([truth.get(n, setup.params[n].value) for n in setup.space.names])
+    layout = setup.target.layout
+    for r, p in enumerate(setup.problems):
+        adj = layout.adjustments(x, r, p)
+        got = np.asarray(reference_simulate_jit(layout.model_x(x, r), p, adj))[:, list(p.model.output_index)]
+        got = got + (0.0 if adj is None or adj.offset is None else np.asarray(adj.offset))
+        err = np.max(np.abs(got - np.asarray(p.y_meas)) / np.max(np.abs(np.asarray(p.y_meas)), axis=0))
+        assert err < 1e-8, (r, err)
+    if lengths_key != "far":
+        res = dcjax.fit(list(recs), model, start_parameters(model, truth, feature, case, len(recs)), observation=observation(case, feature),
+                        integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-6), runs=1, budget=70, polish=True)  # fmt: skip
+        auto = res.settings["nd_auto"]
+        assert auto["converged"] and auto["reference_error"] <= 1e-6 and set(res.best_values) == set(truth)
+
+
 @pytest.mark.parametrize("model_key", ["dc", "discrete"])
 def test_a_result_simulates_on_a_power_of_two_grid_to_the_same_bits(model_key):
     """`FitResult.simulate` pads the problem to `grid_length` (a folder's summary compiles a few

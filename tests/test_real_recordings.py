@@ -77,7 +77,8 @@ def test_model_from_a_file(tmp_path, sd1):
     assert get_model(model_spec(m)).__class__ is m.__class__  # a saved result names the file again
     out = tmp_path / "fit"
     assert cli.main(["fit", str(datasets.DATA_DIR / "SD1.csv"), "--model", spec, "--runs", "1", "--budget", "140", "--out", str(out)]) == 0
-    assert cli.main(["report", str(out / "result.json")]) == 0  # reloads the file's model and, with it, the data
+    assert cli.main(["report", str(out / "result.json")]) == 2  # the result names the file, but dcjax imports no code on its word
+    assert cli.main(["report", str(out / "result.json"), "--model", spec]) == 0  # the user names it: its model and, with it, the data
     with pytest.raises(ValueError, match="cannot import model"):
         get_model(f"{tmp_path / 'absent.py'}:Mine")
     with pytest.raises(ValueError, match="cannot import model"):

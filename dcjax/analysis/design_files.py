@@ -4,6 +4,7 @@ inputs, `design.json` and `design.png`)."""
 
 import numpy as np
 
+from ..io.files import save_figure, strict_json, write_atomic, write_text
 from ..models import Model, get_model
 from .design import Design
 from .plotting import channel_label
@@ -46,7 +47,6 @@ def scales_from_fit(result, fraction: float = 0.01) -> dict[str, float]:
 def write_design(design: Design, baselines: dict[str, Design], folder, model) -> list:
     """`input.csv` (t and the designed input), `design.json` (criterion, levels, predicted
     standard errors of the design and of each baseline) and `design.png`."""
-    import json
     from pathlib import Path
 
     m = get_model(model)
@@ -54,8 +54,8 @@ def write_design(design: Design, baselines: dict[str, Design], folder, model) ->
     folder.mkdir(parents=True, exist_ok=True)
     rec = design.recording
     columns = [c for c in m.inputs if c in rec.channels]  # designed and kept inputs (constants: design.json)
-    np.savetxt(folder / "input.csv", np.column_stack([rec.t, *[rec[c] for c in columns]]), delimiter=",",
-               header=",".join(["t", *columns]), comments="", fmt="%.10g")  # fmt: skip
+    write_atomic(folder / "input.csv", lambda tmp: np.savetxt(tmp, np.column_stack([rec.t, *[rec[c] for c in columns]]), delimiter=",",
+                                                               header=",".join(["t", *columns]), comments="", fmt="%.10g"))  # fmt: skip
 
     def errors(d: Design):
         return {k: {"stderr": d.stderr[k], "relative": d.relative_stderr()[k]} for k in d.free}
@@ -77,7 +77,7 @@ def write_design(design: Design, baselines: dict[str, Design], folder, model) ->
         "predicted": {"design": errors(design), **{k: errors(b) for k, b in baselines.items()}},
         "not_identifiable": design.unidentifiable,
     }
-    (folder / "design.json").write_text(json.dumps(info, indent=2) + "\n")
+    write_text(folder / "design.json", strict_json(info) + "\n")
     _plot_design(design, baselines, m, folder / "design.png")
     return [folder / "input.csv", folder / "design.json", folder / "design.png"]
 
@@ -106,4 +106,4 @@ def _plot_design(design: Design, baselines: dict[str, Design], m: Model, path) -
     ax.set(yscale="log", ylabel="predicted rel. std. error (%)")
     ax.legend(fontsize=7)
     fig.suptitle(f"designed input ({design.criterion}-criterion, hold {design.hold:g} s)")
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.files import save_figure
 from ..io.units import SI_UNITS
 
 
@@ -92,7 +93,7 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
         fig.suptitle(f"the first {len(shown)} of {len(recs)} recordings")
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=90)
+        save_figure(fig, path, dpi=90)
     return fig
 
 
@@ -124,5 +125,5 @@ def corner(posterior, path: str | Path) -> Path:
                 ax.set_ylabel(names[i], fontsize=8)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     return path

@@ -69,6 +69,7 @@ class Posterior:
     wall: dict[str, float]  # seconds: "warmup" (with the compilation of warmup and sampling), "sampling" (the draws alone)
     seed: int
     priors: dict[str, str] = dataclasses.field(default_factory=dict)  # name -> prior spec where not uniform in the range
+    result_sha256: str | None = None  # of the result.json sampled, where saved with it (`save`)
 
     def interval(self, name: str, prob: float = 0.9) -> tuple[float, float]:
         """The central `prob` interval of `name`'s draws (all chains)."""
@@ -113,9 +114,20 @@ class Posterior:
         lines.append(f"prior: uniform in each search range (log-uniform on a log scale){own and ', except' + own[1:]}")
         return "\n".join(lines)
 
-    def save(self, path) -> None:
-        """The draws and diagnostics as an .npz (arrays `draws` (chains, draws, F), `names`, ...)."""
-        np.savez(path, draws=self.draws, names=np.array(self.names), rhat=np.array([self.rhat[n] for n in self.names]),
+    def save(self, path, result_sha256: str | None = None) -> None:
+        """The draws and diagnostics as an .npz (arrays `draws` (chains, draws, F), `names`, ...),
+        written atomically; `result_sha256`: the sha256 of the result.json sampled (`dcjax report`
+        takes a posterior.npz beside a result for it only where they match)."""
+        from ..io.files import write_atomic
+
+        def write(tmp):
+            with open(tmp, "wb") as f:
+                self._savez(f, result_sha256)
+
+        write_atomic(path, write)
+
+    def _savez(self, f, result_sha256) -> None:
+        np.savez(f, result_sha256=np.array(result_sha256 or self.result_sha256 or ""), draws=self.draws, names=np.array(self.names), rhat=np.array([self.rhat[n] for n in self.names]),
                  ess_bulk=np.array([self.ess_bulk[n] for n in self.names]), ess_tail=np.array([self.ess_tail[n] for n in self.names]),
                  optimum=np.array([self.optimum[n] for n in self.names]), divergences=self.divergences, seed=self.seed,
                  steps=self.steps, acceptance=self.acceptance, wall=np.array([self.wall["warmup"], self.wall["sampling"]]),
@@ -141,12 +153,13 @@ class Posterior:
             return d[key].item() if key in d else default
 
         wall = d["wall"] if "wall" in d else (np.nan, np.nan)
-        return cls(names=names, draws=draws, optimum=named("optimum"), rhat=named("rhat"), ess_bulk=named("ess_bulk"),
+        post = cls(names=names, draws=draws, optimum=named("optimum"), rhat=named("rhat"), ess_bulk=named("ess_bulk"),
                    ess_tail=named("ess_tail"), divergences=int(scalar("divergences")), steps=float(scalar("steps")),
                    acceptance=float(scalar("acceptance")), likelihood=str(scalar("likelihood")),
                    noise=dict(zip(map(str, d["noise_names"]), map(float, d["noise"]))),
                    wall={"warmup": float(wall[0]), "sampling": float(wall[1])}, seed=int(scalar("seed")),
                    priors=dict(zip(map(str, d["prior_names"]), map(str, d["priors"]))) if "priors" in d else {})  # fmt: skip
+        return dataclasses.replace(post, result_sha256=str(d["result_sha256"]) or None if "result_sha256" in d else None)
 
 
 class Whitening(eqx.Module):

@@ -6,10 +6,25 @@ import warnings
 
 from .args import _parser
 from .design import design_cmd
-from .fitting import bound_hints, fit
+from .each import fit_each_cmd
+from .fitting import _options, _search, bound_hints, fit_one
+from .output import drop_sidecars
 from .saved import report_cmd, sample_cmd, simulate_cmd, validate_cmd
 
-__all__ = ["bound_hints", "main"]
+__all__ = ["bound_hints", "entry", "main"]
+
+
+def fit(args) -> int:
+    """`dcjax fit`: one fit of the recordings (a joint fit of several), or `--each` file on its own."""
+    from ..models import get_model
+
+    model = get_model(args.model)
+    options = _options(args, model)
+    model = options["observation"].check(model).observed(model)  # --measure: the compared states
+    args.data = drop_sidecars(args.data)
+    if args.each:
+        return fit_each_cmd(args, model, options | _search(args))
+    return fit_one(args, model, options)
 
 
 COMMANDS = {
@@ -22,8 +37,11 @@ COMMANDS = {
 }
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
+    """The command line in this process (tests, notebooks): its exit status; errors as one line on
+    stderr. `cleanup`: a list the output folders put their undo on while they are open (`entry`)."""
     args = _parser().parse_args(argv)
+    args.cleanup = cleanup
     from ..devices import use_compilation_cache, use_compiled_loops, use_host_devices
 
     use_host_devices()
@@ -51,3 +69,50 @@ def main(argv: list[str] | None = None) -> int:
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
     print(f"dcjax: warning: {message}", file=sys.stderr)
+
+
+class _Signal(Exception):
+    def __init__(self, signum: int):
+        self.signum = signum
+
+
+def entry(argv: list[str] | None = None) -> int:
+    """The `dcjax` command: `main` in a worker thread while this one waits for it, so that Ctrl-C
+    (SIGINT) or SIGTERM end the command at once with one line, also while a compiled search runs
+    (XLA returns to Python only when its call ends): the files already written are whole (each
+    was written to a temporary name and renamed), an output folder this run created and wrote
+    nothing into is removed, and the exit status is 128 + the signal's number."""
+    import signal
+    import threading
+
+    cleanup: list = []
+    outcome: dict = {}
+
+    def work():
+        try:
+            outcome["rc"] = main(argv, cleanup)
+        except BaseException as e:  # argparse's SystemExit too: raised again in the main thread
+            outcome["error"] = e
+
+    def stop(signum, frame):
+        raise _Signal(signum)
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    worker = threading.Thread(target=work, name="dcjax", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.05)
+    except (KeyboardInterrupt, _Signal) as e:
+        signum = e.signum if isinstance(e, _Signal) else signal.SIGINT
+        for undo in list(cleanup):
+            undo()
+        what = "interrupted" if signum == signal.SIGINT else f"stopped by signal {signal.Signals(signum).name}"
+        print(f"\ndcjax: {what}: the files already written are whole; nothing half-written is left", file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(128 + int(signum))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["rc"]

@@ -125,6 +125,22 @@ def _add_experiment_options(f: argparse.ArgumentParser) -> None:
                    "--bound delay_IN=LO:HI), e.g. for the DC motor u_a")  # fmt: skip
 
 
+def _add_result_options(p: argparse.ArgumentParser, data: bool = False) -> None:
+    """The options of a command that reads a saved result (and where `data`, its recordings)."""
+    p.add_argument("--model", default=None, help="the fit's model where it is not built in, path/to/file.py:Name or package.module:attr "
+                   "(a result file names it, but dcjax imports no code on a file's word)")  # fmt: skip
+    if data:
+        p.add_argument("--data", dest="data_files", nargs="+", default=None, metavar="FILE",
+                       help="the fitted recordings (default: the files the result names, where their bytes are the ones fitted)")  # fmt: skip
+    p.add_argument("--allow-changed-data", action="store_true",
+                   help="read a data file the result names even where it changed since the fit (its sha256 differs), with a warning")  # fmt: skip
+
+
+def _add_overwrite(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--overwrite", action="store_true", help="replace an earlier run's files in --out (default: keep them and write "
+                   "to OUT-2, OUT-3, ..., with a note)")  # fmt: skip
+
+
 def _add_design_parser(sub) -> None:
     """`dcjax design`: its options."""
     d = sub.add_parser("design", help="design the next experiment's input from a fit (optimal input design)")
@@ -165,6 +181,45 @@ def _add_design_parser(sub) -> None:
     d.add_argument("--steps", type=int, default=300, help="optimizer steps per start")
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--out", default="design", help="output folder")
+    _add_overwrite(d)
+    _add_result_options(d, data=True)
+
+
+def _add_saved_parsers(sub) -> None:
+    """`dcjax simulate | validate | design | sample | report`: the commands on a saved result."""
+    s = sub.add_parser("simulate", help="simulate a saved result on a recording: CSV of measured and simulated channels, and a plot")
+    s.add_argument("result", help="result.json of a fit")
+    s.add_argument("data", help="data file or embedded name")
+    s.add_argument("--out", default="out", help="output folder")
+    _add_overwrite(s)
+    _add_result_options(s)
+    _add_data_options(s)
+    v = sub.add_parser("validate", help="OF and fit %% per channel of a saved result on other recordings, with plots")
+    v.add_argument("result", help="result.json of a fit")
+    v.add_argument("data", nargs="+", help="data file(s) or embedded names")
+    v.add_argument("--out", default="out", help="output folder")
+    _add_overwrite(v)
+    _add_result_options(v)
+    _add_data_options(v)
+    _add_design_parser(sub)
+    m = sub.add_parser("sample", help="posterior draws of a saved result's parameters (NUTS through the simulator), with R-hat and ESS")
+    m.add_argument("result", help="result.json of a fit (its data files are read again)")
+    m.add_argument("--draws", type=int, default=1000, help="draws per chain after warmup (default 1000)")
+    m.add_argument("--chains", type=int, default=4, help="chains, run side by side (default 4)")
+    m.add_argument("--warmup", type=int, default=1000, help="warmup steps per chain: step size and dense mass matrix (default 1000)")
+    m.add_argument("--seed", type=int, default=0, help="random seed (same seed, same draws)")
+    m.add_argument("--out", default="out", help="output folder for posterior.npz and corner.png")
+    _add_overwrite(m)
+    _add_result_options(m, data=True)
+    m.add_argument("--prior", action="append", default=None, metavar="NAME=SPEC",
+                   help="a parameter's own prior within its range instead of the uniform one: normal(MEAN,SD), lognormal(MEDIAN,SIGMA) "
+                        "or halfnormal(SD), e.g. for the DC motor --prior 'J=lognormal(1e-4,0.5)' (repeatable)")  # fmt: skip
+    r = sub.add_parser("report", help="print the fit report of a saved result")
+    r.add_argument("result", help="result.json of a fit")
+    r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
+    r.add_argument("--posterior", default=None,
+                   help="posterior.npz of `dcjax sample` to report beside (default: the one beside RESULT.json sampled from it, if any)")  # fmt: skip
+    _add_result_options(r, data=True)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -237,33 +292,9 @@ def _parser() -> argparse.ArgumentParser:
         "search at --runs 2), or none; a single or joint fit: none (no fit.png)",
     )
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
+    _add_overwrite(f)
     f.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")  # fmt: skip
     _add_data_options(f)
-    s = sub.add_parser("simulate", help="simulate a saved result on a recording: CSV of measured and simulated channels, and a plot")
-    s.add_argument("result", help="result.json of a fit")
-    s.add_argument("data", help="data file or embedded name")
-    s.add_argument("--out", default="out", help="output folder")
-    _add_data_options(s)
-    v = sub.add_parser("validate", help="OF and fit %% per channel of a saved result on other recordings, with plots")
-    v.add_argument("result", help="result.json of a fit")
-    v.add_argument("data", nargs="+", help="data file(s) or embedded names")
-    v.add_argument("--out", default="out", help="output folder")
-    _add_data_options(v)
-    _add_design_parser(sub)
-    m = sub.add_parser("sample", help="posterior draws of a saved result's parameters (NUTS through the simulator), with R-hat and ESS")
-    m.add_argument("result", help="result.json of a fit (its data files are read again)")
-    m.add_argument("--draws", type=int, default=1000, help="draws per chain after warmup (default 1000)")
-    m.add_argument("--chains", type=int, default=4, help="chains, run side by side (default 4)")
-    m.add_argument("--warmup", type=int, default=1000, help="warmup steps per chain: step size and dense mass matrix (default 1000)")
-    m.add_argument("--seed", type=int, default=0, help="random seed (same seed, same draws)")
-    m.add_argument("--out", default="out", help="output folder for posterior.npz and corner.png")
-    m.add_argument("--prior", action="append", default=None, metavar="NAME=SPEC",
-                   help="a parameter's own prior within its range instead of the uniform one: normal(MEAN,SD), lognormal(MEDIAN,SIGMA) "
-                        "or halfnormal(SD), e.g. for the DC motor --prior 'J=lognormal(1e-4,0.5)' (repeatable)")  # fmt: skip
-    r = sub.add_parser("report", help="print the fit report of a saved result")
-    r.add_argument("result", help="result.json of a fit")
-    r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
-    r.add_argument("--posterior", default=None,
-                   help="posterior.npz of `dcjax sample` to report beside (default: the one beside RESULT.json, if any)")  # fmt: skip
+    _add_saved_parsers(sub)
     return p

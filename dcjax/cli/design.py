@@ -3,6 +3,7 @@
 from pathlib import Path
 
 from .args import _named_floats, _named_ranges, _names
+from .output import announce, output_folder
 from .saved import _result
 
 
@@ -12,7 +13,7 @@ def design_cmd(args) -> int:
     from ..analysis.design import design_input, evaluate_input
     from ..analysis.design_files import noise_from_fit, scales_from_fit, write_design
 
-    res = _result(args.result)
+    res = _result(args)
     m = res.model
     noise = _named_floats(args.noise, "--noise") or None
     if noise is None:
@@ -33,18 +34,23 @@ def design_cmd(args) -> int:
     for k, f in enumerate(args.baseline):  # one entry per file, also where two files share a name
         label = f"baseline {Path(f).stem}"
         files[label if label not in files else f"{label} ({k + 1})"] = _baseline_input(f, t, names)
-    design = design_input(
-        m, res.values(0), duration=args.duration, dt=args.dt, u_range=u_range, hold=args.hold, limit=limit, given=given,
-        criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,
-        steps=args.steps, seed=args.seed, baselines=list(files.values()),
-    )  # fmt: skip
+    try:
+        design = design_input(
+            m, res.values(0), duration=args.duration, dt=args.dt, u_range=u_range, hold=args.hold, limit=limit, given=given,
+            criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,
+            steps=args.steps, seed=args.seed, baselines=list(files.values()),
+        )  # fmt: skip
+    except np.linalg.LinAlgError as e:
+        raise ValueError(f"design: the information matrix of the fitted parameters could not be decomposed ({e}): the fit's "
+                         "parameters give a simulation the design cannot differentiate; check the fit (dcjax report) or --noise") from None  # fmt: skip
     top = np.array([u_range[c][1] for c in names])
     baselines = {"step to " + ", ".join(f"{c}={v:g}" for c, v in zip(names, top)): evaluate_input(design, m, np.tile(top, (len(t), 1)))}
     if rec is not None:
         own = {c: np.asarray(rec[c]) for c in m.inputs if c not in design.given or np.ndim(design.given[c]) > 0}
         baselines[f"recording {rec.name}"] = evaluate_input(design, m, own, t=np.asarray(rec.t - rec.t[0]))
     baselines.update({k: evaluate_input(design, m, u) for k, u in files.items()})
-    written = write_design(design, baselines, Path(args.out), m)
+    with output_folder(args, lambda f: [f / "design.json"], "an earlier design.json") as folder:
+        written = write_design(design, baselines, announce(folder), m)
     ranges = ", ".join(f"{c} in [{u_range[c][0]:g}, {u_range[c][1]:g}]" for c in names)
     kept = [c for c in given if np.ndim(given[c]) > 0]
     consts = {c: v for c, v in given.items() if np.ndim(v) == 0}

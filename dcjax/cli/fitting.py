@@ -2,7 +2,6 @@
 
 import dataclasses
 import sys
-import time
 from pathlib import Path
 
 from ..io.units import parse_mapping
@@ -60,7 +59,6 @@ def _bounds(args, model, recs):
     from ..models.bounds import Bounds, resolve_bounds
 
     recs = recs if isinstance(recs, list) else [recs]
-    rec = recs[0]
     if (args.lower is None) != (args.upper is None):
         raise ValueError("--lower and --upper must be given together")
     start = {}
@@ -70,7 +68,9 @@ def _bounds(args, model, recs):
             raise ValueError("give either --bounds or --lower/--upper, not both")
         bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
     else:
-        preset = args.bounds or (rec.metadata.get("bounds") if rec.metadata.get("bounds") in model.preset_names else "auto")
+        from ..fitting.vector import sidecar_preset
+
+        preset = args.bounds or sidecar_preset(recs, model)
         if preset.lower() == "auto" and set(model.names) <= set(given):  # --bound gave every range: nothing to estimate
             bounds = Bounds([given[n][0] for n in model.names], [given[n][1] for n in model.names], model.names)
         elif preset.lower() == "auto":
@@ -180,6 +180,10 @@ def _file_params(args, model, rec):
         raise ValueError("--local needs a joint fit of several recordings (each gets its own value)")
     fixed_all = _named_floats(args.fix, "--fix")
     x0_all = _named_floats(args.x0, "--x0")
+    for n, v in fixed_all.items():
+        lo_n, hi_n = _named_ranges(args.bound, "--bound").get(n, (-float("inf"), float("inf")))
+        if not lo_n <= v <= hi_n:
+            raise ValueError(f"--fix {n}={v:g} lies outside --bound {n}={lo_n:g}:{hi_n:g}: a known value is not searched; give one of them")
     fixed = {k: v for k, v in fixed_all.items() if not _observed(k)}
     x0 = {k: v for k, v in x0_all.items() if not _observed(k)}
     model.check_names(fixed, "fixed parameter")
@@ -311,167 +315,31 @@ def _print_fit(result, recs, args, model, out):
     )
 
 
-def _save(result, out: Path, plot: bool = True) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    result.to_json(out / "result.json")
-    if plot:
-        result.plot(out / "fit.png")
+def _no_finite_candidate(result) -> str | None:
+    """The one-line error of a fit none of whose runs found a finite objective, else None."""
+    import numpy as np
+
+    if np.any(np.isfinite(result.run_of)):
+        return None
+    return (f"no run found parameters whose simulation is finite (every OF is inf, {result.nfev:,} evaluations): the model "
+            "blows up over the whole search range; check the bounds, the units and scales (--units, --scale) and the model")  # fmt: skip
 
 
-def fit(args) -> int:
-    from ..models import get_model
+def fit_one(args, model, options) -> int:
+    """`dcjax fit` of one recording or a joint fit of several: result.json and fit.png in --out."""
+    from .output import announce, fit_products, output_folder, remove_earlier, save_fit
 
-    model = get_model(args.model)
-    options = _options(args, model)
-    model = options["observation"].check(model).observed(model)  # --measure: the compared states
-    if args.each:
-        return fit_each_cmd(args, model, options | _search(args))
     if args.plots not in (None, "none"):
         raise ValueError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
-    recs = [_load(d, args, model) for d in args.data]
-    options |= _search(args, recs)
-    result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
-    out = Path(args.out)
-    _save(result, out, plot=args.plots is None)
+    with output_folder(args, fit_products, "an earlier fit's result.json") as folder:
+        out = announce(folder)
+        recs = [_load(d, args, model) for d in args.data]
+        options |= _search(args, recs)
+        result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
+        failed = _no_finite_candidate(result)
+        if failed:
+            raise ValueError(failed)
+        remove_earlier(folder.replaced)
+        save_fit(result, out, plot=args.plots is None)
     _print_fit(result, recs, args, model, out)
     return 0
-
-
-COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
-                  "/jax/core/compile/backend_compile_duration")  # fmt: skip
-
-
-class _Split:
-    """Where an --each command's wall time goes (its last line). JAX's compilation (tracing,
-    lowering, XLA), wherever it happens (the first estimate's scoring, the search, the summary's
-    simulations), is counted as `compile` (`jax.monitoring`), the rest of each phase as the phase:
-    the time inside a `timed` function goes to its part, the rest between two `add`s to theirs."""
-
-    def __init__(self):
-        self.seconds = {"load+checks": 0.0, "estimate": 0.0, "compile": 0.0, "search": 0.0, "write+plots": 0.0}
-        self._compiled = 0.0
-
-    def _listen(self, event: str, duration_secs: float, **_: str | int) -> None:
-        if event in COMPILE_EVENTS:
-            self._compiled += duration_secs
-
-    def __enter__(self):
-        import jax.monitoring
-
-        jax.monitoring.register_event_duration_secs_listener(self._listen)
-        self._t, self._c, self._inside, self._inside_c = time.perf_counter(), 0.0, 0.0, 0.0
-        return self
-
-    def __exit__(self, *exc):
-        import jax.monitoring
-
-        jax.monitoring.unregister_event_duration_listener(self._listen)
-
-    def _book(self, part: str, seconds: float, compiled: float) -> None:
-        self.seconds["compile"] += compiled
-        self.seconds[part] += max(0.0, seconds - compiled)
-
-    def timed(self, part: str, fn):
-        """`fn`, its time (less its compilation) booked to `part` at every call."""
-
-        def call(*a, **kw):
-            t, c = time.perf_counter(), self._compiled
-            try:
-                return fn(*a, **kw)
-            finally:
-                dt, dc = time.perf_counter() - t, self._compiled - c
-                self._book(part, dt, dc)
-                self._inside, self._inside_c = self._inside + dt, self._inside_c + dc
-
-        return call
-
-    def add(self, part: str) -> None:
-        """The time since the last call (or the start) that no `timed` call booked goes to `part`."""
-        t, c = time.perf_counter(), self._compiled
-        self._book(part, t - self._t - self._inside, c - self._c - self._inside_c)
-        self._t, self._c, self._inside, self._inside_c = t, c, 0.0, 0.0
-
-    def line(self, n: int) -> str:
-        return f"{n} files: " + ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items())
-
-
-def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
-    """`[k/n] name: ok, OF ..., S s, L left`: S the file's share of its batch's search and its writing."""
-    from ..fitting.result import FailedFit
-
-    status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"
-    return f"[{k}/{n}] {name}: {status}, {seconds:.3g} s, {n - k} left"
-
-
-def fit_each_cmd(args, model, options) -> int:
-    """`dcjax fit --each`: one fit per file (`dcjax.fit_each`: the files of one structure in one
-    compiled call); a file that fails to load, fails a data check or fails to fit is reported and
-    the others are fitted. One line per finished file on stderr (a bar on a terminal); the last
-    line splits the wall time."""
-
-    with _Split() as split:
-        return _fit_each_files(args, model, options, split)
-
-
-def _fit_each_files(args, model, options, split: "_Split") -> int:
-    from ..fitting.each import fit_each
-    from ..fitting.result import FailedFit
-    from ..fitting.summary import summary_rows, write_summary
-
-    out = Path(args.out)
-    plots = args.plots or "summary"
-    n = len(args.data)
-    load = split.timed("load+checks", lambda data: _prepared(_load(data, args, model), args, model))
-    params = split.timed("estimate", lambda rec: _file_params(args, model, rec))
-    results = fit_each(args.data, model, params, load=load, **options)
-    split.add("search")
-    bar = _file_bar(n, args)
-    names: dict[str, int] = {}
-    for k, result in enumerate(results, start=1):
-        t_file = time.perf_counter()
-        if isinstance(result, FailedFit):
-            print(f"{result.name}: failed: {result.error}")
-        else:
-            label = result.recording.name
-            c = names.get(label, 0)
-            names[label] = c + 1
-            folder = out / (label if c == 0 else f"{label}_{c + 1}")
-            if args.uncertainty:
-                result = results[k - 1] = result.uncertainty()
-            _save(result, folder, plot=plots == "each")
-            at = result.at_bound()
-            warn = [f.label for f in result.checks]
-            print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "")
-                  + (f"; checks: {' '.join(warn)}" if warn else "") + f"; wrote {folder}")  # fmt: skip
-        share = 0.0 if isinstance(result, FailedFit) else float(result.timing.get("run_s", 0.0))  # its share of the batch's search
-        bar(_progress_line(k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result,
-                           share + time.perf_counter() - t_file))  # fmt: skip
-    bar(None)
-    rows = summary_rows(results, model)
-    csv_path, png = write_summary(rows, out, model, plot=plots != "none")
-    ok = sum(r["status"] == "ok" for r in rows)
-    flagged = [r["name"] for r in rows if r.get("outlier")]
-    split.add("write+plots")
-    wrote = f"{csv_path} and {png}" if plots != "none" else f"{csv_path}"
-    print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {wrote}")
-    print(split.line(n))
-    return 0 if ok == len(rows) else 1 if ok else 2
-
-
-def _file_bar(n: int, args):
-    """A per-file reporter: a tqdm bar on a terminal (or with --progress), else one line per file
-    on stderr; called with a line per finished file, then None."""
-    tty = sys.stderr.isatty() if args.progress is None else bool(args.progress)
-    if not tty:
-        return lambda line: None if line is None else print(line, file=sys.stderr, flush=True)
-    from tqdm import tqdm
-
-    bar = tqdm(total=n, unit="file", desc="files", leave=False, dynamic_ncols=True)
-
-    def report(line):
-        if line is None:
-            bar.close()
-        else:
-            bar.update(1)
-
-    return report

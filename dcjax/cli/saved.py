@@ -1,5 +1,7 @@
 """`dcjax simulate | validate | report`: what a saved result says about recordings."""
 
+import argparse
+import sys
 import warnings
 from pathlib import Path
 
@@ -8,10 +10,21 @@ import numpy as np
 from .fitting import _load
 
 
-def _result(path):
-    from ..fitting.result import load_result
+def _result(args):
+    """The saved result of `args.result`: its model named by the file where built in, else by
+    --model; its recordings --data where given (read in the fit's layout), else the files it
+    names where their bytes are the fitted ones (--allow-changed-data: read changed ones too)."""
+    from ..fitting.restore import load_result
 
-    return load_result(path)
+    model = getattr(args, "model", None)
+    allow = bool(getattr(args, "allow_changed_data", False))
+    data = getattr(args, "data_files", None)
+    if not data:
+        return load_result(args.result, model=model, allow_changed_data=allow)
+    res = load_result(args.result, [], model=model)
+    as_fitted = argparse.Namespace(columns=None, units=None, scale=None, dt=None, rate=None, delimiter=None, decimal=".", const=None,
+                                   drop_nan=False, window=None, every=None, trim=False, limit=None)  # read in the fit's layout  # fmt: skip
+    return load_result(args.result, [_load_like_fit(d, as_fitted, res) for d in data], model=model)
 
 
 def _load_like_fit(data: str, args, res):
@@ -58,18 +71,22 @@ def _load_like_fit(data: str, args, res):
 def simulate_cmd(args) -> int:
     import numpy as np
 
-    res = _result(args.result)
+    from ..io.files import write_atomic
+    from .output import announce, file_names, output_folder
+
+    res = _result(args)
     rec = _load_like_fit(args.data, args, res)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    stem = f"simulated_{file_names([rec.name])[0]}"
     sim = res.simulate(rec)
     m = res.model
     cols = ["t", *m.inputs, *(f"{c}_meas" for c in m.outputs), *(f"{s}_sim" for s in m.states)]
     table = np.column_stack([rec.t, *(rec[c] for c in m.inputs), *(rec[c] for c in m.outputs), sim])
-    path = out / f"simulated_{rec.name}.csv"
-    np.savetxt(path, table, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
-    res.plot(out / f"simulated_{rec.name}.png", recordings=[rec], convergence=False)
-    print(f"wrote {path} and {out / f'simulated_{rec.name}.png'}")
+    with output_folder(args, lambda f: [f / f"{stem}.csv"], f"an earlier {stem}.csv") as folder:
+        out = announce(folder)
+        path = write_atomic(out / f"{stem}.csv", lambda tmp: np.savetxt(tmp, table, delimiter=",", header=",".join(cols), comments="",
+                                                                      fmt="%.17g"))  # fmt: skip
+        res.plot(out / f"{stem}.png", recordings=[rec], convergence=False)
+    print(f"wrote {path} and {out / f'{stem}.png'}")
     return 0
 
 
@@ -77,27 +94,27 @@ def validate_cmd(args) -> int:
     import jax.numpy as jnp
 
     from ..analysis.report import channel_fit
+    from ..io.files import strict_json, write_text
+    from .output import announce, file_names, output_folder
 
-    res = _result(args.result)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    res = _result(args)
     recs = [_load_like_fit(d, args, res) for d in args.data]
     x = jnp.asarray([res.best_values[n] for n in res.names], dtype=jnp.float64)
     width = max(12, *(len(r.name) for r in recs))
-    print(f"{'recording':>{width}} {'OF':>12}  " + "  ".join(f"{'fit % ' + c:>14}" for c in res.model.outputs))
-    rows = []
-    for rec in recs:
-        of = float(res.target([rec]).objective(x))  # a fitted recording with its own local values and initial states
-        fits = channel_fit(res, rec)
-        rows.append({"recording": rec.name, "of": of, "fit_percent": fits})
-        print(f"{rec.name:>{width}} {of:12.4e}  " + "  ".join(f"{v:14.3f}" for v in fits.values()))
-        for c, v in fits.items():
-            if not v > 0:
-                print(f"warning: {rec.name}: fit % of {c} is {v:.1f} <= 0: the model does not follow {c} on this recording")
-        res.plot(out / f"validate_{rec.name}.png", recordings=[rec], convergence=False)
-    import json
-
-    (out / "validation.json").write_text(json.dumps(rows, indent=2) + "\n")
+    with output_folder(args, lambda f: [f / "validation.json"], "an earlier validation.json") as folder:
+        out = announce(folder)
+        print(f"{'recording':>{width}} {'OF':>12}  " + "  ".join(f"{'fit % ' + c:>14}" for c in res.model.outputs))
+        rows = []
+        for rec, name in zip(recs, file_names([r.name for r in recs])):
+            of = float(res.target([rec]).objective(x))  # a fitted recording with its own local values and initial states
+            fits = channel_fit(res, rec)
+            rows.append({"recording": rec.name, "of": of, "fit_percent": fits, "plot": f"validate_{name}.png"})
+            print(f"{rec.name:>{width}} {of:12.4e}  " + "  ".join(f"{v:14.3f}" for v in fits.values()))
+            for c, v in fits.items():
+                if not v > 0:
+                    print(f"warning: {rec.name}: fit % of {c} is {v:.1f} <= 0: the model does not follow {c} on this recording")
+            res.plot(out / f"validate_{name}.png", recordings=[rec], convergence=False)
+        write_text(out / "validation.json", strict_json(rows) + "\n")
     print(f"wrote {out / 'validation.json'} and {len(recs)} plot(s) in {out}")
     return 0
 
@@ -106,17 +123,20 @@ def sample_cmd(args) -> int:
     """Posterior draws of a saved result: the table (posterior beside the linearised 90 %
     intervals), posterior.npz and corner.png in --out."""
     from ..analysis.plotting import corner
+    from ..io.files import file_sha256
     from .args import _named_priors
+    from .output import announce, output_folder
 
-    res = _result(args.result)
-    post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed, priors=_named_priors(args.prior))
-    u = res.uncertainty().uncertainties
-    assert u is not None
-    print(post.table(u.intervals(post.names)))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    post.save(out / "posterior.npz")
-    corner(post, out / "corner.png")
+    res = _result(args)
+    priors = _named_priors(args.prior)
+    with output_folder(args, lambda f: [f / "posterior.npz"], "an earlier posterior.npz") as folder:
+        out = announce(folder)
+        post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed, priors=priors)
+        u = res.uncertainty().uncertainties
+        assert u is not None
+        print(post.table(u.intervals(post.names)))
+        post.save(out / "posterior.npz", result_sha256=file_sha256(args.result))
+        corner(post, out / "corner.png")
     bad = [n for n in post.names if not post.rhat[n] <= 1.01 or not post.ess_bulk[n] >= 400]
     if bad:
         print(f"warning: R-hat above 1.01 or bulk ESS below 400 for {', '.join(bad)}: more --draws/--warmup, or a posterior "
@@ -129,14 +149,22 @@ def sample_cmd(args) -> int:
 
 def report_cmd(args) -> int:
     from ..analysis.posterior import Posterior
+    from ..io.files import file_sha256
 
-    res = _result(args.result)
+    res = _result(args)
     if args.uncertainty:
         res = res.uncertainty()
     path = Path(args.posterior) if args.posterior else Path(args.result).parent / "posterior.npz"
     if args.posterior and not path.is_file():
         raise ValueError(f"--posterior: no such file: {path}")
     post = Posterior.load(path) if path.is_file() else None
+    if post is not None and post.result_sha256 != file_sha256(args.result):
+        if not args.posterior:  # the file beside it belongs to another result (or a result changed since): not this one's
+            print(f"note: {path} was not sampled from this result.json (another fit's, or the result changed): not reported; "
+                  "--posterior names a posterior to report anyway", file=sys.stderr)  # fmt: skip
+            post = None
+        else:
+            print(f"note: --posterior {path} was not sampled from this result.json", file=sys.stderr)
     if post is not None and not set(post.names) <= set(res.names):
         raise ValueError(f"--posterior: {path} holds draws of {', '.join(post.names)}, not of this result's parameters")
     print(res.report(posterior=post))

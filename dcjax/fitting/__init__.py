@@ -7,7 +7,8 @@ module (a subpackage re-exports no name that is also one of its modules)."""
 
 from .each import fit_each
 from .observation import Observation
-from .result import FailedFit, FitResult, load_result
+from .restore import load_result
+from .result import FailedFit, FitResult
 from .setup import Plan, Search, Setup, with_weights
 
 __all__ = [

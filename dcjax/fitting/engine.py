@@ -96,11 +96,14 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
     candidates = [2**k for k in range(int(np.log2(auto.max_substeps)) + 1)]
 
     def errors_at(setup: Setup, values: dict, nds) -> dict:
-        x = np.array([values[n] for n in setup.model.names])
-        refs = [reference_simulate_jit(x, p) for p in setup.problems]
-        return {
-            nd: max(simulation_error(x, p, ref) for p, ref in zip(setup.with_integrator(kind(substeps=nd)).problems, refs)) for nd in nds
-        }
+        """Each ND's simulation error at the search vector `values`: every recording with its own
+        parameters (local ones), fitted initial state and delays, its held inputs (`Layout`)."""
+        x = jnp.asarray([values[n] for n in setup.space.names])
+        layout = setup.target.layout
+        each = [(layout.model_x(x, r), layout.adjustments(x, r, p)) for r, p in enumerate(setup.problems)]
+        refs = [reference_simulate_jit(xr, p, adj) for (xr, adj), p in zip(each, setup.problems)]
+        return {nd: max(simulation_error(xr, p, ref, adj) for (xr, adj), p, ref in zip(each, setup.with_integrator(kind(substeps=nd)).problems, refs))
+                for nd in nds}  # fmt: skip
 
     current = [s.with_integrator(kind(substeps=1)) for s in setups]
     runs: list = [None] * len(setups)
@@ -130,7 +133,7 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
     out = []
     for k, setup in enumerate(current):
         result = make_result(setup, search, *runs[k])
-        final = errors_at(setup, result.values(0), [nd[k]])[nd[k]]
+        final = errors_at(setup, result.best_values, [nd[k]])[nd[k]]
         info = {"tol": auto.tol, "max": auto.max_substeps, "chosen": nd[k], "converged": bool(final <= auto.tol), "reference_error": final,
                 "errors_at_nd1_fit": rounds[k][0]["errors"], "rounds": rounds[k],
                 "reference": "diffrax Dopri8, PID rtol 1e-10 atol 1e-12, jump_ts at the samples"}  # fmt: skip

@@ -15,7 +15,7 @@ and a wrong start shifts every sample of the state's transient the same way: the
 parameters move by several of their standard errors whatever the noise level (the ratio does not
 shrink with the noise). A defaulted `y0` searches the first sample +- `START_SPREAD` noise levels;
 beyond `MAX_FITTED_STARTS` such values in one fit (hundreds of recordings) the first samples stay.
-`AutoSubsteps` (nd auto) refuses fitted states, these too: `--initial S=measured` keeps a first sample."""
+`AutoSubsteps` (nd auto) refits with them: its diffrax reference starts from the fitted state."""
 
 import dataclasses
 from collections.abc import Mapping

@@ -3,7 +3,6 @@
 its JSON form and its restoration without refitting."""
 
 import dataclasses
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
@@ -13,8 +12,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ..analysis.checks import Finding
 from ..compiling import filter_jit
+from ..io.files import strict_json, write_text
 from ..io.recording import Recording
 from ..models import Model, get_model, model_spec
 from ..models.bounds import Bounds
@@ -25,7 +24,8 @@ from ..simulation.joint import JointProblem, Layout, grid_length, padded
 from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
 from .observation import Observation
-from .vector import base_name, layout_of, rows_of, transferred, unit_of
+from .result_file import FORMAT, VERSION, relative_to
+from .vector import base_name, rows_of, transferred, unit_of
 
 
 @filter_jit
@@ -355,11 +355,19 @@ class FitResult:
 
         names = self.names
         return {
+            "format": FORMAT,
+            "version": VERSION,
             "params": dict(self.best_values),
             "parameters": self.params.to_dict(),  # value, min, max, vary, unit, precision, stderr
             "of": self.of,
             "runs": [
-                {"of": float(o), "params": dict(zip(names, map(float, p))), "fes": int(n), "iterations": int(it)}
+                {
+                    "of": float(o),
+                    "status": "finite" if np.isfinite(o) else "no finite objective",
+                    "params": dict(zip(names, map(float, p))),
+                    "fes": int(n),
+                    "iterations": int(it),
+                }  # fmt: skip
                 | ({} if self.dups is None else {"dups": int(self.dups[r])})
                 for r, (o, p, n, it) in enumerate(zip(self.run_of, self.run_params, self.fes, self.iterations))
             ],
@@ -390,10 +398,21 @@ class FitResult:
             "dcjax_version": __version__,
         }
 
-    def to_json(self, path: str | Path | None = None) -> str:
-        text = json.dumps(self.to_dict(), indent=2)
+    def to_json(self, path: str | Path | None = None, files: Mapping[str, str] | None = None) -> str:
+        """result.json's text (strict JSON: a non-finite number is null; `dcjax.fitting.result_file`).
+        With `path` it is written there atomically, each data file's path relative to its folder;
+        `files`: the sibling files written with it, name -> sha256 (readers trust only those)."""
+        d = self.to_dict()
         if path is not None:
-            Path(path).write_text(text + "\n")
+            folder = Path(path).parent
+            data = [dict(src, path=relative_to(src["path"], folder)) if isinstance(src, dict) and src.get("path") else src
+                    for src in d["settings"].get("data") or []]  # fmt: skip
+            d["settings"] = {**d["settings"], "data": data}
+        if files:
+            d["files"] = dict(files)
+        text = strict_json(d)
+        if path is not None:
+            write_text(path, text + "\n")
         return text
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
@@ -426,60 +445,3 @@ class FitResult:
 
     def __str__(self) -> str:
         return self.report()
-
-
-def load_result(path: str | Path, recordings: list[Recording] | None = None, model: Model | str | None = None) -> FitResult:
-    """Restore a saved result (`result.json`) without refitting: parameters, runs, settings,
-    model and (where their files are still there, or given as `recordings`) the recordings."""
-    from ..io.loading import load_recording
-
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"no such result file: {path}")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{path}: not a result file (invalid JSON: {e})") from None
-    if not isinstance(d, dict) or "params" not in d or "runs" not in d or "settings" not in d:
-        raise ValueError(f"{path}: not a dcjax result file (needs params, runs and settings)")
-    observation = Observation.from_settings(d["settings"])
-    m = observation.observed(get_model(model if model is not None else d.get("model")))
-    names = tuple(d["settings"].get("names") or m.names)
-    missing = [n for n in names if n not in d["params"]]
-    if missing:
-        raise ValueError(f"{path}: the result has no value of {', '.join(missing)} (model {m.name}: {', '.join(m.names)})")
-    runs = d["runs"]
-    if recordings is None:
-        recordings = []
-        for src in d["settings"].get("data", []) or []:
-            if not isinstance(src, dict):
-                continue
-            if src.get("path") and Path(src["path"]).is_file():
-                rec = load_recording(src["path"], **{**(src.get("load") or {}), "model": m})  # the result's model names the channels
-            elif src.get("embedded"):
-                from ..io import datasets
-
-                rec = datasets.load(src["embedded"])
-            else:
-                continue
-            recordings.append(rec if "limit" not in src or src["limit"] == rec.limit else rec.replace(limit=src["limit"]))
-    hist_len = max((r.get("iterations", 0) for r in runs), default=0)
-    return FitResult(
-        best_values={n: float(d["params"][n]) for n in names},
-        of=float(d["of"]),
-        run_of=np.array([r["of"] for r in runs], float),
-        run_params=np.array([[r["params"][n] for n in names] for r in runs], float),
-        fes=np.array([r.get("fes", 0) for r in runs]),
-        iterations=np.array([r.get("iterations", 0) for r in runs]),
-        history=np.full((len(runs), max(1, hist_len)), np.nan),
-        settings=d["settings"],
-        timing=d.get("timing", {}),
-        polish=d.get("polish"),
-        dups=np.array([r["dups"] for r in runs]) if runs and "dups" in runs[0] else None,
-        recordings=list(recordings),
-        model=m,
-        fixed={k: float(v) for k, v in (d.get("fixed") or {}).items()},
-        checks=tuple(Finding(**f) for f in d.get("checks") or []),
-        observation=observation,
-        layout=None if "names" not in d["settings"] else layout_of(names, m, observation, len(d["settings"].get("data") or [0])),
-    )

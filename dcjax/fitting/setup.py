@@ -190,16 +190,6 @@ class Plan:
         local = [n for n, p in own.items() if p.local and not p.vary]
         if local and len(recordings) > 1:
             raise ValueError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
-        local_fit = len(recordings) > 1 and any(p.local for p in own.values())
-        if isinstance(self.integrator, AutoSubsteps) and (
-            local_fit or observation.fitted_states() or observation.offsets or observation.delays or observation.hold
-        ):
-            noisy = [s for s in observation.fitted_states() if observation.defaulted(s)]
-            raise ValueError(
-                "nd auto: not with local parameters, fitted initial states, offsets, delays or held inputs; give the sub-steps (--nd N)"
-                + (f" (the noisy {', '.join(noisy)} start fitted by default: --initial {','.join(s + '=measured' for s in noisy)} "
-                   "starts them at their first samples)" if noisy else "")
-            )  # fmt: skip
         integrator = self.integrator.integrator if isinstance(self.integrator, AutoSubsteps) else self.integrator
         layout, vec = search_vector(model, recordings, own, extras, observation)
         fixed = vec.fixed

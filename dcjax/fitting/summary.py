@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.files import save_figure, write_atomic
 from ..models import get_model
 from .result import FailedFit, FitResult
 
@@ -103,19 +104,22 @@ def write_summary(rows: list[dict], folder: Path, model=None, plot: bool = True)
     """`summary.csv` (every row, failed ones with their error) and `summary.png` (each
     parameter's spread over the recordings, outliers marked)."""
     import csv
+    import io
 
     m = get_model(model)
     folder.mkdir(parents=True, exist_ok=True)
     channels = [f"fit_{c}" for c in m.outputs]
-    known = {"name", "file", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"}
+    known = {"name", "file", "folder", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"}
     extra = list(dict.fromkeys(k for row in rows for k in row if k not in known))  # the experiment's y0_*, offset_*, delay_*
-    cols = ["name", "file", "status", "error", "of", *m.names, *extra, *channels, "at_bound", "checks", "outlier"]
+    folder_col = ["folder"] if any("folder" in row for row in rows) else []  # the command line's sub-folder of each result
+    cols = ["name", "file", *folder_col, "status", "error", "of", *m.names, *extra, *channels, "at_bound", "checks", "outlier"]
     csv_path = folder / "summary.csv"
-    with csv_path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=cols, extrasaction="ignore")
-        w.writeheader()
-        for row in rows:
-            w.writerow({c: (f"{row[c]:.10g}" if isinstance(row.get(c), float) else row.get(c, "")) for c in cols})
+    text = io.StringIO(newline="")
+    w = csv.DictWriter(text, fieldnames=cols, extrasaction="ignore")
+    w.writeheader()
+    for row in rows:
+        w.writerow({c: (f"{row[c]:.10g}" if isinstance(row.get(c), float) else row.get(c, "")) for c in cols})
+    write_atomic(csv_path, lambda tmp: tmp.write_bytes(text.getvalue().encode()))
     png = folder / "summary.png"
     if plot:
         _plot_summary(rows, m, png)
@@ -173,4 +177,4 @@ def _plot_summary(rows, m, path: Path) -> None:
     if failed:
         lines.append("failed: " + ", ".join(failed))
     fig.suptitle("\n".join(textwrap.fill(x, int(12 * width)) for x in lines), fontsize=8)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)

@@ -187,9 +187,7 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> tup
     (`dcjax.analysis.estimate.auto_bounds`: ranges from an equation-error first estimate, whose
     values seed the search) or `Parameters` (copied; split by `split_parameters`)."""
     if params is None:
-        named = {r.metadata.get("bounds") for r in recordings}
-        preset = named.pop() if len(named) == 1 else None
-        params = preset if preset in model.preset_names else "auto"
+        params = sidecar_preset(recordings, model)
     if isinstance(params, str) and params.lower() == "auto":
         from ..analysis.estimate import auto_bounds
 
@@ -207,6 +205,29 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> tup
         if p.vary and p.min > p.max:
             raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
     return own, extras
+
+
+def sidecar_preset(recordings: list[Recording], model: Model) -> str:
+    """The bounds the recordings' sidecars name (`"bounds"`), where they all name the same preset
+    of `model`, else "auto". A name that is no preset of any built-in model (a typo) is a
+    one-line error; another model's preset, or sidecars that disagree, a warning."""
+    import warnings
+
+    from ..models import MODELS
+
+    named = {r.metadata.get("bounds") for r in recordings} - {None}
+    if not named:
+        return "auto"
+    known = {p for cls in MODELS.values() for p in cls().preset_names} | set(model.preset_names) | {"auto"}
+    bad = sorted(str(n) for n in named if str(n).lower() not in known)
+    if bad:
+        raise ValueError(f"the sidecar's bounds {', '.join(map(repr, bad))} is no preset: model {model.name} has "
+                         f"{', '.join(model.preset_names) or 'none'}, or auto")  # fmt: skip
+    if len(named) > 1 or str(next(iter(named))).lower() not in (*model.preset_names, "auto"):
+        warnings.warn(f"the sidecars' bounds {', '.join(sorted(map(str, named)))} {'differ' if len(named) > 1 else 'is no preset of model ' + model.name}: "
+                      "auto bounds (bounds=/--bounds names a preset)", stacklevel=3)  # fmt: skip
+        return "auto"
+    return str(next(iter(named))).lower()
 
 
 def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:

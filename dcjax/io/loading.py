@@ -4,7 +4,6 @@ preprocessing (time window, decimation, switch-on trimming) recorded with the da
 
 import dataclasses
 import hashlib
-import math
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -13,97 +12,10 @@ import numpy as np
 
 from ..models import Model, get_model
 from .recording import Recording, read_sidecar, trim_switch_on
-from .units import select_channels
+from .table import Table, read_table
+from .units import SI_UNITS, UNITS, known_unit, select_channels, unit_factor
 
-DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None}
 TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
-
-
-MISSING = ("", "nan", "na", "n/a", "null", "none")  # a field read as NaN (as pandas' read_csv does)
-
-
-def _split(line: str, delim: str | None) -> list[str]:
-    return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
-
-
-def _row_values(fields: list[str], decimal: str) -> list[float] | None:
-    """The row's numbers (a `MISSING` field as NaN), or None where it is not a data row: a field
-    neither a number nor missing, or every field missing. One pass that both tests and converts
-    (a file of 700 rows x 3: 2.2 -> 1.4 ms, against testing every row and converting it again)."""
-    out = []
-    for f in fields:
-        try:
-            out.append(float(f if decimal == "." else f.replace(decimal, ".")))
-        except ValueError:
-            if f.lower() not in MISSING:
-                return None
-            out.append(math.nan)
-    if all(v != v for v in out) and all(f.lower() in MISSING for f in fields):
-        return None  # a row of missing fields only is not data
-    return out
-
-
-def _units_row(fields: list[str]) -> bool:
-    """A line of units under the header (`s, V, A, rad/s`, `[ms]`, `(rpm)`): every field a known unit or empty."""
-    from .units import UNITS
-
-    known = {u.lower() for table in UNITS.values() for u in table} | {"", "-"}
-    return any(fields) and all(f.strip("[]()").strip().lower() in known for f in fields)
-
-
-def _detect_delimiter(lines: list[str], decimal: str) -> str | None:
-    """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields
-    (and the lines before it, as far as they are data, into as many)."""
-    for d in (";", "\t", ",", None):
-        if d == "," and decimal == ",":
-            continue
-        last = _split(lines[-1], d)
-        if len(last) >= 2 and _row_values(last, decimal) is not None:
-            return d
-    raise ValueError("cannot detect the delimiter (tried ';', tab, ',', whitespace); give delimiter=/--delimiter")
-
-
-def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> dict[str, np.ndarray]:
-    """Column name -> values of a delimited text file. `#` lines and a preamble are skipped: the
-    data are the trailing block of numeric rows, the header the line just before it (or before a
-    line of units under it; columns are named by 0-based index where there is none). A delimiter
-    ending every line is dropped; an empty field or `nan`, `NA`, `null` is NaN (see `drop_nan`)."""
-    if decimal not in (".", ","):
-        raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
-    text = path.read_text(errors="replace")
-    lines = [_without_trailing_delimiter(x) for x in text.splitlines() if x.strip() and not x.lstrip().startswith("#")]
-    if not lines:
-        raise ValueError(f"{path}: no data rows")
-    if delimiter is None:
-        delim = _detect_delimiter(lines, decimal)
-    elif delimiter in DELIMITERS:
-        delim = DELIMITERS[delimiter]
-    else:
-        raise ValueError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
-    if delim == "," and decimal == ",":
-        raise ValueError("delimiter and decimal separator cannot both be ','")
-    rows = [_split(x, delim) for x in lines]
-    width = len(rows[-1])
-    start, values = len(rows), []  # the trailing block of numeric rows, read from the end
-    while start > 0 and len(rows[start - 1]) == width and (row := _row_values(rows[start - 1], decimal)) is not None:
-        values.append(row)
-        start -= 1
-    if start == len(rows) or width < 2:
-        raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
-    if start > 1 and len(rows[start - 1]) == width == len(rows[start - 2]) and _units_row(rows[start - 1]):
-        start -= 1  # a units line under the header (not read: give the units as units=/--units)
-    header = rows[start - 1] if start > 0 and len(rows[start - 1]) == width else [str(k) for k in range(width)]
-    header = [h.strip().strip('"').strip("'") for h in header]
-    if len(set(header)) != len(header):
-        raise ValueError(f"{path}: repeated column names in the header {header}")
-    data = np.array(values[::-1], dtype=np.float64)
-    return {h: data[:, k] for k, h in enumerate(header)}
-
-
-def _without_trailing_delimiter(line: str) -> str:
-    """`1,2,3;` -> `1,2,3` (a logger that ends every line with a delimiter)."""
-    line = line.rstrip()
-    return line[:-1].rstrip() if line.endswith((";", ",")) else line
 
 
 def read_npz(path: Path) -> dict[str, np.ndarray]:
@@ -204,6 +116,32 @@ def _window(text_or_pair) -> tuple[float, float] | None:
     return float(a), float(b)
 
 
+ALIAS_SHARE = 0.01  # a channel with more of its power above the new Nyquist frequency is named by `preprocess`
+
+
+def aliasing(rec: Recording, every: int) -> tuple[str, float, float] | None:
+    """(channel, share, new Nyquist frequency) of the channel with the largest share of its power
+    above the Nyquist frequency of every `every`-th sample, where that share exceeds `ALIAS_SHARE`;
+    None where no channel's does (or `every` is 1). The power is the periodogram of the channel less
+    the line through its end samples, Hann-windowed: a smooth transient's leakage stays below 1e-10."""
+    if every <= 1 or len(rec) < 4 * every:
+        return None
+    n = len(rec)
+    k = np.arange(n)
+    window = np.hanning(n)
+    worst = None
+    for c, y in rec.channels.items():
+        detrended = (y - (y[0] + (y[-1] - y[0]) * k / (n - 1))) * window
+        power = np.abs(np.fft.rfft(detrended)) ** 2
+        total = float(power[1:].sum())
+        if not total > 0:
+            continue
+        share = float(power[n // (2 * every) + 1 :].sum()) / total
+        if share > ALIAS_SHARE and (worst is None or share > worst[1]):
+            worst = (c, share, 0.5 / (every * float(np.median(np.diff(rec.t)))))
+    return worst
+
+
 def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool | float = False, model: Model | None = None) -> Recording:
     """Keep t in `window` = (T0, T1) (s), then every `every`-th sample, then trim before the
     switch-on (`trim=True` or a threshold fraction of max|u|, `dcjax.trim_switch_on`) of the
@@ -217,6 +155,12 @@ def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool
     if every is not None:
         if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
             raise ValueError(f"every must be a positive integer, got {every!r}")
+        aliased = aliasing(rec, int(every))
+        if aliased:
+            c, share, nyquist = aliased
+            warnings.warn(f"every={every} keeps 1 sample in {every}: {c} has {100 * share:.2g} % of its power above the new Nyquist "
+                          f"frequency {nyquist:.4g} Hz, which folds into the samples kept (no anti-alias filter is applied): "
+                          "low-pass filter first, or keep more samples", stacklevel=3)  # fmt: skip
         rec = rec.select(slice(None, None, int(every)))
     if trim:
         m = get_model(model)
@@ -291,9 +235,9 @@ def load_recording(
         raise ValueError(f"no such file: {path}")
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        table = read_npz(path)
+        table = Table(read_npz(path), {}, np.array([]))
     elif suffix == ".mat":
-        table = read_mat(path)
+        table = Table(read_mat(path), {}, np.array([]))
     elif suffix in TEXT_SUFFIXES or suffix == "":
         table = read_table(path, delimiter, decimal)
     else:
@@ -302,23 +246,82 @@ def load_recording(
     consts = {**(meta.get("constants") or {}), **(constants or {})}
     needed = tuple(c for c in m.channels if c not in consts or c not in m.inputs)
     unmeasured = tuple(s for s in m.states if s not in needed)  # read where present: an initial state
-    chans = select_channels(table, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate,
+    chans = select_channels(table.columns, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate,
                             inputs=tuple(m.inputs), optional=unmeasured)  # fmt: skip
+    unconverted_units(table, chans, columns, units, m, path.name, timed=dt is not None or rate is not None)
     if drop_nan:
         chans = _finite_rows(chans, path.name)
+    else:
+        _no_nan(chans, table, path.name)
     if consts:
         meta["constants"] = consts
     limit = limit if limit is not None else meta.get("limit", meta.get("i_a_limit"))
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
     rec = preprocess(rec, window, every, trim, m)
-    kept = {
-        "window": None if window is None else list(_window(window) or ()),
-        "every": every,
-        "trim": trim,
-        "limit": limit,
-        "model": None if model is None else (m.name if isinstance(model, str) else None),
-    }
     read = Reading(columns or None, units or None, scale or None, dt, rate, delimiter, decimal, constants or None, bool(drop_nan))
+    kept = {"window": None if window is None else list(_window(window) or ()), "every": every, "trim": trim, "limit": limit,
+            "model": None if model is None else (m.name if isinstance(model, str) else None)}  # fmt: skip
     load = read.to_dict() | {k: v for k, v in kept.items() if v not in (None, False)}
-    return rec.replace(metadata={**meta, "source": {"path": str(path.resolve()), "sha256": sha256(path), "load": load, "name": rec.name}})
+    return rec.replace(metadata={**meta, "source": _source(path, load, rec.name)})
+
+
+def _source(path: Path, load: dict, name: str) -> dict:
+    """What a result records of a file it fitted: its path, size and sha256 (and its sidecar's),
+    how it was read (`load`) and the recording's name."""
+    source = {"path": str(path.resolve()), "sha256": sha256(path), "bytes": path.stat().st_size, "load": load, "name": name}
+    sidecar = path.with_suffix(".json")
+    if sidecar.is_file() and sidecar != path:
+        source["sidecar_sha256"] = sha256(sidecar)
+    return source
+
+
+LOAD_KEYS = (*(f.name for f in dataclasses.fields(Reading)), "window", "every", "trim", "limit", "model")  # a result's "load" record
+
+
+def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> None:
+    """A one-line `DataError` naming the file's line of the first row with a NaN/inf in a channel read."""
+    from .recording import DataError
+
+    bad = {c: np.flatnonzero(~np.isfinite(v)) for c, v in chans.items()}
+    bad = {c: k for c, k in bad.items() if k.size}
+    if not bad:
+        return
+    c, rows = min(bad.items(), key=lambda kv: kv[1][0])
+    k = int(rows[0])
+    at = f"line {int(table.lines[k])}" if table.lines.size else f"row {k}"
+    raise DataError("nan", f"{where}: {at}: {c} is {'NaN' if np.isnan(chans[c][k]) else 'inf'} (a missing or non-finite field; "
+                           f"{int(np.sum(~np.logical_and.reduce([np.isfinite(v) for v in chans.values()])))} rows in all; "
+                           "drop_nan=True / --drop-nan drops such rows)")  # fmt: skip
+
+
+def unconverted_units(table: Table, chans, columns, units, model: Model, where: str, timed: bool = False) -> None:
+    """A one-line warning for each channel read whose column the file gives a unit (its units
+    line, or its header: `speed_rpm`, `I [mA]`) that nothing converts: a unit other than the
+    channel's SI unit that `units` does not name, or a unit dcjax does not know."""
+    headers = list(table.columns)
+    columns, units = dict(columns or {}), dict(units or {})
+    for c in chans:
+        if c in units or (c == "t" and timed):
+            continue
+        src = str(columns.get(c, c))
+        name = src if src in table.columns else headers[int(src)] if src.isdigit() and int(src) < len(headers) else None
+        stated = table.units.get(name) if name is not None else None
+        if not stated or stated in ("-", "#") and c != "t":
+            continue
+        by = "units line" if table.units_line is not None else "header"
+        quantity = "time" if c == "t" else model.quantities.get(c)
+        si = SI_UNITS.get(quantity or "", "")
+        if not known_unit(stated):
+            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {stated!r}, which dcjax does not know: it is read "
+                          f"as {si or 'SI'}; convert it (units=/--units {c}=UNIT, scale=/--scale {c}=FACTOR) or check it", stacklevel=3)  # fmt: skip
+            continue
+        try:
+            factor = unit_factor(c, stated, quantity)
+        except ValueError:
+            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {stated!r}, not one of {quantity or 'its quantity'} "
+                          f"({', '.join(UNITS.get(quantity or '', {})) or 'SI'}): check the column mapping", stacklevel=3)  # fmt: skip
+            continue
+        if factor != 1.0:
+            warnings.warn(f"{where}: column {name!r} ({c}) is in {stated} by its {by}, but read as {si or 'SI'}: units=/--units "
+                          f"{c}={stated} converts it", stacklevel=3)  # fmt: skip

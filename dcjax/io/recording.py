@@ -34,7 +34,7 @@ def _constants(given, where: str = "") -> dict[str, float]:
     out = {}
     for k, v in given.items():
         try:
-            f = float(v)
+            f = float("nan") if isinstance(v, (bool, np.bool_)) else float(v)
         except (TypeError, ValueError):
             f = float("nan")
         if not np.isfinite(f):
@@ -102,7 +102,7 @@ class Recording:
         given = limit
         if limit is not None:
             try:
-                limit = float(limit)
+                limit = float("nan") if isinstance(limit, (bool, np.bool_)) else float(limit)
             except (TypeError, ValueError):
                 limit = float("nan")
             if not np.isfinite(limit) or limit <= 0:
@@ -244,7 +244,32 @@ def read_sidecar(path: Path) -> dict:
         raise ValueError(f"{sidecar}: invalid JSON: {e}") from None
     if not isinstance(meta, dict):
         raise ValueError(f"{sidecar}: must hold a JSON object")
+    for key, (ok, what) in SIDECAR_FIELDS.items():
+        if key in meta and not ok(meta[key]):
+            shown = repr(meta[key]) if len(repr(meta[key])) <= 60 else repr(meta[key])[:57] + "..."
+            raise ValueError(f"{sidecar}: {key} must be {what}, got {shown}")
     return meta
+
+
+def _number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
+
+
+def _named_numbers(v) -> bool:
+    return isinstance(v, dict) and all(isinstance(k, str) and _number(x) for k, x in v.items())
+
+
+# The sidecar fields dcjax reads, each with its type (any other field is metadata, kept as it is).
+SIDECAR_FIELDS = {
+    "name": (lambda v: isinstance(v, str) and v.strip() != "", "a non-empty string"),
+    "i_a_limit": (lambda v: v is None or (_number(v) and v > 0), "a positive number (the current limit, A) or null"),
+    "limit": (lambda v: v is None or (_number(v) and v > 0), "a positive number or null"),
+    "constants": (_named_numbers, "an object of input name -> number"),
+    "bounds": (lambda v: v is None or isinstance(v, str), "a preset name (a string) or null"),
+    "true_params": (lambda v: v is None or _named_numbers(v), "an object of parameter name -> number or null"),
+    "weights": (lambda v: v is None or _named_numbers(v), "an object of channel name -> number or null"),
+    "joint_weight": (lambda v: v is None or (_number(v) and v >= 0), "a number >= 0 or null"),
+}
 
 
 def save_csv(recording: Recording, path: str | Path, metadata: dict | None = None) -> None:

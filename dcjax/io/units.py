@@ -7,8 +7,16 @@ UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "min": 60.0},
     "voltage": {"V": 1.0, "mV": 1e-3, "kV": 1e3},
     "current": {"A": 1.0, "mA": 1e-3, "kA": 1e3},
-    "angular speed": {"rad/s": 1.0, "1/s": 1.0, "rpm": 2 * np.pi / 60, "1/min": 2 * np.pi / 60, "rev/s": 2 * np.pi, "deg/s": np.pi / 180},
-    "angle": {"rad": 1.0, "deg": np.pi / 180, "rev": 2 * np.pi},
+    "angular speed": {
+        "rad/s": 1.0,
+        "1/s": 1.0,
+        "rpm": 2 * np.pi / 60,
+        "1/min": 2 * np.pi / 60,
+        "rev/s": 2 * np.pi,
+        "turns/s": 2 * np.pi,
+        "deg/s": np.pi / 180,
+    },  # fmt: skip
+    "angle": {"rad": 1.0, "deg": np.pi / 180, "rev": 2 * np.pi, "turns": 2 * np.pi},
     "torque": {"Nm": 1.0, "mNm": 1e-3},
 }
 
@@ -19,6 +27,12 @@ SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s
 
 class ColumnError(ValueError):
     """A channel's column is not in the file (a one-line error naming it and the file's columns)."""
+
+
+def known_unit(text: str) -> bool:
+    """Whether `text` names a unit of `UNITS` (exactly, or without case where longer than 2 characters: `RPM`, `MS`)."""
+    t = text.strip()
+    return any(t in table or (len(t) > 2 and t.lower() in {u.lower() for u in table}) for table in UNITS.values())
 
 
 def unit_factor(channel: str, unit: str, quantity: str | None) -> float:

@@ -11,30 +11,44 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .adjustments import Adjustments
 from .integrate import prepare
 from .problem import Problem
 
 
 def reference_simulate(
-    params, problem: Problem, rtol: float = 1e-10, atol: float = 1e-12, max_steps: int = 1_000_000
+    params, problem: Problem, adjustments: Adjustments | None = None, rtol: float = 1e-10, atol: float = 1e-12, max_steps: int = 1_000_000
 ) -> Float[Array, "n s"]:
     """Every state at the sample instants, by `diffrax.Dopri8` with a PID controller (unbatched
-    parameters)."""
+    parameters). `adjustments`: a fitted initial state and input delays (u(t - d), its knots
+    t_k + d passed as jump times too); an input in `problem.held` is its sample at or before t
+    (a zero-order hold), eq. 29's linear interpolation otherwise."""
     model = problem.model
     c, y0 = prepare(params, problem)
+    if adjustments is not None and adjustments.y0 is not None:
+        y0 = tuple(adjustments.y0[..., s] for s in range(len(model.states)))
     t = jnp.concatenate([jnp.zeros(1), jnp.cumsum(problem.h)])
     u = jnp.concatenate([problem.u_start, problem.u_end[-1:]], axis=0)  # (n, m) inputs at the samples
+    m = u.shape[1]
+    delay = jnp.zeros(m) if adjustments is None or adjustments.delay is None else adjustments.delay
+    delayed = () if adjustments is None or adjustments.delay is None else adjustments.delayed or tuple(range(m))
     k_lim = model.states.index(model.limited_state) if model.limited_state is not None and problem.limit is not None else None
 
+    def read(s, j):
+        at = s - delay[j]
+        if j in problem.held:
+            return u[jnp.clip(jnp.searchsorted(t, at, side="right") - 1, 0, t.shape[0] - 1), j]
+        return jnp.interp(at, t, u[:, j])
+
     def field(s, y, _):
-        us = tuple(jnp.interp(s, t, u[:, j]) for j in range(u.shape[1]))
-        dy = model.vector_field(c, us, tuple(y))
+        dy = model.vector_field(c, tuple(read(s, j) for j in range(m)), tuple(y))
         if k_lim is not None:
             yk, dk, lim = y[k_lim], dy[k_lim], jnp.asarray(problem.limit)
             dk = jnp.where(((yk >= lim) & (dk > 0)) | ((yk <= -lim) & (dk < 0)), 0.0, dk)
             dy = dy[:k_lim] + (dk,) + dy[k_lim + 1 :]
         return jnp.stack(dy)
 
+    jumps = jnp.sort(jnp.concatenate([t, *(t + delay[j] for j in delayed)]))
     sol = diffrax.diffeqsolve(
         diffrax.ODETerm(field),
         diffrax.Dopri8(),
@@ -43,7 +57,7 @@ def reference_simulate(
         dt0=None,
         y0=jnp.stack(y0),
         saveat=diffrax.SaveAt(ts=t),
-        stepsize_controller=diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=t),
+        stepsize_controller=diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=jumps),
         max_steps=max_steps,
     )
     return sol.ys  # pyright: ignore[reportReturnType]
@@ -52,11 +66,12 @@ def reference_simulate(
 reference_simulate_jit = jax.jit(reference_simulate, static_argnames=("max_steps",))
 
 
-def simulation_error(params, problem: Problem, reference: Float[Array, "n s"]) -> float:
-    """max over the measured channels of max_k |y_sim - y_ref| / max|y_measured|."""
+def simulation_error(params, problem: Problem, reference: Float[Array, "n s"], adjustments: Adjustments | None = None) -> float:
+    """max over the measured channels of max_k |y_sim - y_ref| / max|y_measured| (a sensor
+    offset adds to both alike)."""
     from .objectives import simulate
 
-    sim = simulate(params, problem)
+    sim = simulate(params, problem, adjustments)
     outs = problem.model.output_index
     peak = jnp.max(jnp.abs(problem.y_meas), axis=0)
     return float(max(jnp.max(jnp.abs(sim[:, o] - reference[:, o])) / peak[j] for j, o in enumerate(outs)))

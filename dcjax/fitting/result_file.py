@@ -1,0 +1,166 @@
+"""result.json as data: its format and version, and a typed reader that checks every field it
+uses and imports nothing.
+
+A result names its model and integrator by a string. Reading it resolves only dcjax's built-in
+names; a user's own model (`file.py:Name`, `module:attr`) or integrator is never imported on the
+file's word: the reader gets it from the caller (`load_result(path, model=...)`, `--model`) or
+says so in one line. Numbers that a file could make huge (sub-steps, sizes) are bounded; a
+non-finite objective is `null` in the file (strict JSON) and +inf when read; an edited value
+that breaks the result (a NaN, a parameter outside its fitted range) is a one-line error
+naming the field."""
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+FORMAT = "dcjax result"
+VERSION = 2  # 2: strict JSON (null for a non-finite number), data paths relative to the result's folder, "files"
+MAX_BYTES = 256 << 20  # a result.json larger than this is refused before it is parsed
+MAX_SUBSTEPS = 1 << 14  # settings.nd at most (an edited 1e9 would simulate for days)
+MAX_RUNS = 100_000
+
+
+class ResultFileError(ValueError):
+    """A result file that cannot be read as one: a one-line message naming the file and the field."""
+
+
+def _short(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+_ABSENT = object()  # no value passed: the field's own
+
+
+class Fields:
+    """Typed reads of one JSON object, each error naming the file and the field's path."""
+
+    def __init__(self, path: Path, data, where: str = ""):
+        self.path, self.data, self.where = path, data, where
+
+    def error(self, field: str, what: str, value) -> ResultFileError:
+        return ResultFileError(f"{self.path}: {self.where}{field} must be {what}, got {_short(value)}")
+
+    def sub(self, field: str, required: bool = True) -> "Fields | None":
+        v = self.data.get(field)
+        if v is None and not required:
+            return None
+        if not isinstance(v, dict):
+            raise self.error(field, "an object", v)
+        return Fields(self.path, v, f"{self.where}{field}.")
+
+    def number(self, field: str, value=_ABSENT, *, null=None, positive=False, lower=-math.inf) -> float:
+        if value is _ABSENT and field not in self.data:
+            raise ResultFileError(f"{self.path}: {self.where}{field} is missing")
+        v = self.data.get(field) if value is _ABSENT else value
+        if v is None and null is not None:
+            return null
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < lower or (positive and not v > 0):
+            what = "a positive number" if positive else "a finite number" + (f" >= {lower:g}" if lower > -math.inf else "")
+            raise self.error(field, what + (" or null" if null is not None else ""), v)
+        return float(v)
+
+    def integer(self, field: str, lo: int = 0, hi: int | None = None, default=None) -> int:
+        v = self.data.get(field, default)
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
+            raise self.error(field, f"an integer {lo}..{hi}" if hi is not None else f"an integer >= {lo}", v)
+        return int(v)
+
+    def text(self, field: str, default=None, null_ok: bool = False) -> str | None:
+        v = self.data.get(field, default)
+        if v is None and null_ok:
+            return None
+        if not isinstance(v, str):
+            raise self.error(field, "a string", v)
+        return v
+
+    def names(self, field: str, default=()) -> tuple[str, ...]:
+        v = self.data.get(field, default)
+        v = default if v is None else v
+        if not isinstance(v, (list, tuple)) or not all(isinstance(n, str) for n in v):
+            raise self.error(field, "a list of names", v)
+        return tuple(v)
+
+    def numbers(self, field: str, n: int | None = None, null=None, lower=-math.inf) -> list[float]:
+        v = self.data.get(field)
+        if not isinstance(v, list) or (n is not None and len(v) != n):
+            raise self.error(field, f"a list of {n} numbers" if n is not None else "a list of numbers", v)
+        return [self.number(f"{field}[{k}]", x, null=null, lower=lower) for k, x in enumerate(v)]
+
+    def named_numbers(self, field: str, names=None, null=None, required: bool = True) -> dict[str, float]:
+        v = self.data.get(field)
+        if v is None and not required:
+            return {}
+        if not isinstance(v, dict):
+            raise self.error(field, "an object of name -> number", v)
+        out = {str(k): self.number(f"{field}.{k}", x, null=null) for k, x in v.items()}
+        missing = [n for n in names or () if n not in out]
+        if missing:
+            raise ResultFileError(f"{self.path}: {self.where}{field} has no value of {', '.join(missing)}")
+        return out
+
+
+def read_record(path: Path) -> dict:
+    """The checked content of a result file: the JSON object, or a one-line `ResultFileError`
+    (no such file, too large, not JSON, not a dcjax result, a newer format)."""
+    import json
+
+    if not path.is_file():
+        raise ResultFileError(f"no such result file: {path}")
+    size = path.stat().st_size
+    if size > MAX_BYTES:
+        raise ResultFileError(f"{path}: {size / 2**20:.0f} MiB is not a result file (a result.json is at most {MAX_BYTES >> 20} MiB)")
+    try:
+        d = json.loads(path.read_bytes(), parse_constant=lambda c: None)  # a 0.2 file's NaN/Infinity: null
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ResultFileError(f"{path}: not a result file (invalid JSON: {e})") from None
+    if not isinstance(d, dict) or not {"params", "runs", "settings"} <= set(d):
+        raise ResultFileError(f"{path}: not a dcjax result file (needs params, runs and settings)")
+    version = d.get("version", 1)
+    if d.get("format", FORMAT) != FORMAT or isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise ResultFileError(f"{path}: not a dcjax result file (format {d.get('format')!r}, version {version!r})")
+    if version > VERSION:
+        raise ResultFileError(f"{path}: a result of format version {version}, newer than this dcjax reads ({VERSION}): update dcjax")
+    return d
+
+
+def model_name(record: Fields, builtin: Mapping) -> str:
+    """The result's model if it is a built-in name, else a one-line error: the file names code."""
+    spec = record.text("model", default="dc")
+    assert spec is not None
+    if spec.lower() in builtin:
+        return spec.lower()
+    raise ResultFileError(f"{record.path}: the result's model {spec!r} is not built in, and dcjax does not import code a result file "
+                          f"names: give the model yourself (load_result(path, model=...); the command line: --model {spec})")  # fmt: skip
+
+
+def integrator_name(record: Fields, builtin) -> str:
+    """settings.integrator if it is a built-in name (or a discrete-time model's "discrete")."""
+    spec = record.text("integrator", default="rk4")
+    assert spec is not None
+    if spec.lower() in builtin:
+        return spec.lower()
+    raise ResultFileError(f"{record.path}: settings.integrator {spec!r} is not built in ({', '.join(builtin)}), and dcjax does not "
+                          "import code a result file names: give it yourself (load_result(path, integrator=...))")  # fmt: skip
+
+
+def within_bounds(path: Path, values: Mapping[str, float], names, lower, upper, fixed: Mapping[str, float]) -> None:
+    """Each value inside its fitted range (a fixed one at its value): else the file was edited."""
+    for n, lo, hi in zip(names, lower, upper):
+        v = values[n]
+        slack = 1e-9 * max(abs(lo) if math.isfinite(lo) else 0.0, abs(hi) if math.isfinite(hi) else 0.0, abs(v))
+        if n not in fixed and not lo - slack <= v <= hi + slack:
+            raise ResultFileError(
+                f"{path}: params.{n} = {v:g} lies outside its fitted range [{lo:g}, {hi:g}]: the file was edited or damaged"
+            )
+
+
+def relative_to(path: str, folder: Path) -> str:
+    """`path` relative to `folder` where it can be (a result moved with its data still finds
+    it), else absolute."""
+    import os
+
+    try:
+        return Path(os.path.relpath(Path(path).resolve(), folder.resolve())).as_posix()
+    except ValueError:  # another drive
+        return str(Path(path).resolve())

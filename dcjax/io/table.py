@@ -1,0 +1,230 @@
+"""Delimited text as a lab's logger writes it: a preamble, a header (possibly in a comment line),
+an optional line of units, then data rows, every one of which is read or named in an error.
+
+The delimiter is detected from the file's last lines (read first, so that a file that is not a
+table fails before it is read whole). The data are the rows of the last line's width from the
+first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
+row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
+is empty, `nan`, `NA`, `null` or `none` is NaN (a row of them only, as loggers write between
+bursts, is a row of NaN: `drop_nan` drops it). The header is the nearest line of that width
+above the data (a commented one where there is no other); a line of units may stand between
+them. Units, from that line or a header such as `speed_rpm`, `I [mA]`, are kept per column
+(`Table.units`) for the caller to compare with what it converts."""
+
+import dataclasses
+import math
+import os
+import re
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+
+DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None}
+MISSING = ("", "nan", "na", "n/a", "null", "none")  # a field read as NaN (as pandas' read_csv does)
+COMMENTS = ("#", "%")
+SNIFF_BYTES = 1 << 16  # the tail read to detect the delimiter before the file is read whole
+
+
+@dataclasses.dataclass(frozen=True)
+class Table:
+    """A text file's data: `columns` header -> values (columns named by 0-based index where the
+    file has no header), `units` header -> unit as the file states it (a units line or the header
+    name), `lines` the file's line number (1-based) of each row, `units_line` the units line's."""
+
+    columns: dict[str, np.ndarray]
+    units: dict[str, str]
+    lines: np.ndarray
+    units_line: int | None = None
+
+
+def split_fields(line: str, delim: str | None) -> list[str]:
+    return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
+
+
+def row_values(fields: list[str], decimal: str) -> list[float] | None:
+    """The row's numbers (a `MISSING` field as NaN), or None where a field is neither a number
+    nor missing. One pass that both tests and converts."""
+    out = []
+    for f in fields:
+        try:
+            out.append(float(f if decimal == "." else f.replace(decimal, ".")))
+        except ValueError:
+            if f.lower() not in MISSING:
+                return None
+            out.append(math.nan)
+    return out
+
+
+def _all_missing(fields: list[str]) -> bool:
+    return all(f.lower() in MISSING for f in fields)
+
+
+def without_trailing_delimiter(line: str) -> str:
+    """`1,2,3;` -> `1,2,3` (a logger that ends every line with a delimiter)."""
+    line = line.rstrip()
+    return line[:-1].rstrip() if line.endswith((";", ",")) else line
+
+
+def _comment(line: str) -> str | None:
+    """The text of a comment line without its marker, else None."""
+    s = line.lstrip()
+    return s[1:].strip() if s.startswith(COMMENTS) else None
+
+
+def detect_delimiter(lines: list[str], decimal: str) -> str | None:
+    """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields."""
+    for d in (";", "\t", ",", None):
+        if d == "," and decimal == ",":
+            continue
+        last = split_fields(lines[-1], d)
+        if len(last) >= 2 and row_values(last, decimal) is not None and not _all_missing(last):
+            return d
+    raise ValueError("cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or "
+                     "whitespace; give delimiter=/--delimiter")  # fmt: skip
+
+
+def _tail_lines(path: Path) -> list[str]:
+    """The last lines of the file (at most `SNIFF_BYTES`), without blanks and comments."""
+    with open(path, "rb") as f:
+        f.seek(0, os.SEEK_END)
+        size = f.tell()
+        f.seek(max(0, size - SNIFF_BYTES))
+        text = f.read().decode("utf-8", errors="replace")
+    lines = text.splitlines()[1:] if size > SNIFF_BYTES else text.splitlines()
+    return [without_trailing_delimiter(x) for x in lines if x.strip() and _comment(x) is None]
+
+
+UNIT_LIKE = re.compile(r"^(\[.*\]|\(.*\)|[A-Za-zµ°%#/0-9.^*-]{1,12})$")
+
+
+def _units_line(fields: list[str]) -> bool:
+    """A line of units under the header (`s, V, A, rad/s`, `[ms]`, `(rpm)`, `degC`): every
+    field unit-shaped (bracketed, or one short token, or empty), at least half of the
+    non-empty ones bracketed or a unit dcjax knows."""
+    from .units import known_unit
+
+    filled = [f for f in fields if f not in ("", "-")]
+    if not filled or not all(UNIT_LIKE.match(f) for f in filled):
+        return False
+    named = [f for f in filled if f[:1] in "[(" or known_unit(f)]
+    return 2 * len(named) >= len(filled) and row_values(fields, ".") is None
+
+
+def unit_text(field: str) -> str:
+    """`[rpm]` / `(rpm)` / `rpm` -> `rpm`."""
+    f = field.strip()
+    return f[1:-1].strip() if len(f) >= 2 and f[0] + f[-1] in ("[]", "()") else f
+
+
+def header_unit(name: str) -> str | None:
+    """The unit a column's name states, where it is one dcjax knows: `speed [rpm]`, `I(mA)`,
+    `speed_rpm`, `time ms` (the last word); else None."""
+    from .units import known_unit
+
+    m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", name)
+    if m and known_unit(m.group(1)):
+        return m.group(1)
+    words = re.split(r"[_\s]+", name.strip())
+    return words[-1] if len(words) > 1 and known_unit(words[-1]) else None
+
+
+def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> Table:
+    """The data of a delimited text file (module docstring), or a one-line error naming the
+    line that breaks it."""
+    if decimal not in (".", ","):
+        raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
+    tail = _tail_lines(path)
+    if not tail:
+        raise ValueError(f"{path}: no data rows (the file is empty or holds comments only)")
+    if delimiter is None:
+        try:
+            delim = detect_delimiter(tail, decimal)
+        except ValueError as e:
+            text = [x for x in tail if x.strip()]
+            if len(text) <= 2 and path.stat().st_size <= SNIFF_BYTES:
+                raise ValueError(f"{path}: no data rows: the file holds {len(text)} line(s) of text and no row of numbers") from None
+            raise ValueError(f"{path}: {e}") from None
+    elif delimiter in DELIMITERS:
+        delim = DELIMITERS[delimiter]
+    else:
+        raise ValueError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
+    if delim == "," and decimal == ",":
+        raise ValueError("delimiter and decimal separator cannot both be ','")
+    width = len(split_fields(tail[-1], delim))
+    if width < 2:
+        raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+    above: deque[tuple[int, list[str] | None, bool]] = deque(
+        maxlen=64
+    )  # the last lines above the data: (line, text fields of its width, commented)
+    values: list[list[float]] = []
+    lines: list[int] = []
+    with open(path, encoding="utf-8", errors="replace", newline=None) as f:
+        for lineno, raw in enumerate(f, start=1):
+            if not raw.strip():
+                continue
+            note = _comment(raw)
+            if note is not None:
+                if not values:
+                    above.append((lineno, _text_of_width(split_fields(without_trailing_delimiter(note), delim), width, decimal), True))
+                continue
+            fields = split_fields(without_trailing_delimiter(raw), delim)
+            row = row_values(fields, decimal) if len(fields) == width else None
+            if not values:  # the preamble, the header and the units: up to the first numeric row of the data's width
+                if row is not None and not _all_missing(fields):
+                    values.append(row)
+                    lines.append(lineno)
+                else:
+                    above.append((lineno, _text_of_width(fields, width, decimal), False))
+                continue
+            if row is None:
+                raise ValueError(_bad_row(path, lineno, fields, width, decimal, lines[0]))
+            values.append(row)
+            lines.append(lineno)
+    if not values:
+        raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+    header, units, units_line = _header(above, width)
+    if len(set(header)) != len(header):
+        raise ValueError(f"{path}: repeated column names in the header {header}")
+    data = np.array(values, dtype=np.float64)
+    units = {h: u for h, u in zip(header, units)} if units else {h: u for h in header if (u := header_unit(h)) is not None}
+    return Table({h: data[:, k] for k, h in enumerate(header)}, units, np.array(lines), units_line)
+
+
+def _text_of_width(fields: list[str], width: int, decimal: str) -> list[str] | None:
+    """`fields` where they are a line of text of the data's width (a header or units candidate)."""
+    return fields if len(fields) == width and row_values(fields, decimal) is None else None
+
+
+def _header(above, width: int) -> tuple[list[str], list[str], int | None]:
+    """(header, units per column or [], the units line) from the lines above the data: the
+    nearest uncommented line where it is text of the data's width (and the one above it where
+    it is a line of units), else the comment lines between it and the data likewise; columns
+    named by index where there is none."""
+    above = list(above)
+    plain = [k for k, a in enumerate(above) if not a[2]]
+    last = plain[-1] if plain else -1
+    for group in ([above[k] for k in plain], above[last + 1 :]):
+        texts = [(line, fields) for line, fields, _ in group]
+        if not texts or texts[-1][1] is None:
+            continue
+        line, near = texts[-1]
+        head = texts[-2][1] if len(texts) > 1 else None
+        if head is not None and _units_line(near):
+            return _names(head), [unit_text(u) for u in near], line
+        return _names(near), [], None
+    return [str(k) for k in range(width)], [], None
+
+
+def _names(fields: list[str]) -> list[str]:
+    return [h.strip().strip('"').strip("'") for h in fields]
+
+
+def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: str, first: int) -> str:
+    """The one-line error of a line inside the data that is not a data row."""
+    where = f"{path}: line {lineno}"
+    if len(fields) != width:
+        return f"{where} has {len(fields)} field(s), the data rows from line {first} have {width}: a ragged or broken row"
+    bad = next((k, f) for k, f in enumerate(fields) if row_values([f], decimal) is None)
+    return (f"{where}: field {bad[0]} ({bad[1]!r}) is not a number, inside the data that start at line {first} "
+            "(a row of text in the data is an error, not a new start; remove or fix the line)")  # fmt: skip

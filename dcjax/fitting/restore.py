@@ -104,7 +104,9 @@ def _checked_rest(top: Fields, s: Fields, m: Model, names, n_data: int):
         raise top.error("checks", "a list of objects", checks)
     for k, c in enumerate(checks):
         f = Fields(top.path, c, f"checks[{k}].")
-        f.text("check"), f.text("message"), f.text("channel", null_ok=True)
+        for field in ("check", "message"):
+            f.text(field)
+        f.text("channel", null_ok=True)
         if c.get("severity") not in ("error", "warning"):
             raise f.error("severity", "error or warning", c.get("severity"))
     polish = top.sub("polish", required=False)
@@ -118,8 +120,11 @@ def _checked_rest(top: Fields, s: Fields, m: Model, names, n_data: int):
     if s.data.get("i_limit") is not None:
         s.number("i_limit", positive=True)
     s.integer("pop_size", 1, default=1)
-    s.text("method"), s.integer("runs", 1), s.integer("budget", 1), s.integer("seed", -(2**63))  # what the report names
-    s.names("log"), s.names("local")
+    s.text("method")  # the report names it, the runs, the budget and the seed
+    for field, lo in (("runs", 1), ("budget", 1), ("seed", -(2**63))):
+        s.integer(field, lo)
+    for field in ("log", "local"):
+        s.names(field)
     for n, spec in (s.sub("priors", required=False) or Fields(top.path, {})).data.items():
         try:
             prior_from_spec(spec)

@@ -140,7 +140,18 @@ def test_4_dcjax_design_on_a_pmsm_fit(tmp_path, capsys):
     bounds = "Rs=0.3:0.7,Ld=5e-4:2e-3,Lq=1e-3:2e-3,psi=0.03:0.07,J=5e-5:2e-4,B=1e-3:3e-3,Tl=0.01:0.03"
     fit = ["fit", str(data), "--model", model, "--const", "pp=4", "--bound", bounds, "--runs", "1", "--budget", "140"]
     assert cli.main([*fit, "--out", str(tmp_path / "fit")]) == 0
-    design = ["design", str(tmp_path / "fit" / "result.json"), "--duration", "0.01", "--dt", "1e-4", "--range", "ud=-2:2,uq=-6:6"]
+    design = [
+        "design",
+        str(tmp_path / "fit" / "result.json"),
+        "--duration",
+        "0.01",
+        "--dt",
+        "1e-4",
+        "--range",
+        "ud=-2:2,uq=-6:6",
+        "--model",
+        model,
+    ]
     capsys.readouterr()
     assert cli.main([*design, "--starts", "2", "--steps", "5", "--out", str(tmp_path / "d")]) == 0
     out = capsys.readouterr()
@@ -152,7 +163,23 @@ def test_4_dcjax_design_on_a_pmsm_fit(tmp_path, capsys):
     # --keep ud: uq alone designed, ud as the fitted recording has it
     assert (
         cli.main(
-            [*design[:6], "--umin", "-6", "--umax", "6", "--keep", "ud", "--starts", "1", "--steps", "2", "--out", str(tmp_path / "k")]
+            [
+                *design[:6],
+                "--model",
+                model,
+                "--umin",
+                "-6",
+                "--umax",
+                "6",
+                "--keep",
+                "ud",
+                "--starts",
+                "1",
+                "--steps",
+                "2",
+                "--out",
+                str(tmp_path / "k"),
+            ]
         )
         == 0
     )

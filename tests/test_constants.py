@@ -57,8 +57,10 @@ def test_the_cli_const_option_and_errors_that_name_the_inputs(tmp_path, capsys):
     out = tmp_path / "o"
     assert cli.main(["fit", str(path), "--model", spec, "--bounds", "box", "--const", "k=2.5", "--runs", "2", "--budget", "700",
                      "--out", str(out)]) == 0  # fmt: skip
-    assert dcjax.load_result(out / "result.json").best_values["tau"] == pytest.approx(0.05, rel=0.2)
-    assert cli.main(["validate", str(out / "result.json"), str(path), "--out", str(tmp_path / "v")]) == 0  # --const remembered
+    assert dcjax.load_result(out / "result.json", model=spec).best_values["tau"] == pytest.approx(0.05, rel=0.2)
+    assert (
+        cli.main(["validate", str(out / "result.json"), str(path), "--model", spec, "--out", str(tmp_path / "v")]) == 0
+    )  # --const remembered
     capsys.readouterr()
     assert cli.main(["fit", str(path), "--model", spec, "--bounds", "box", "--runs", "1", "--budget", "70", "--out", str(out)]) == 2
     err = capsys.readouterr().err

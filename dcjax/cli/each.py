@@ -3,7 +3,6 @@ and where the command's wall time went."""
 
 import sys
 import time
-from pathlib import Path
 
 from .fitting import _file_params, _load, _no_finite_candidate, _prepared
 
@@ -84,19 +83,19 @@ def fit_each_cmd(args, model, options) -> int:
 
 
 def _fit_each_files(args, model, options, split: "_Split") -> int:
-    from .output import announce, each_products, output_folder
+    from .output import each_products, output_folder
 
     with output_folder(args, each_products, "an earlier --each run's summary and results") as folder:
-        out = announce(folder)
-        return _fit_each_into(out, folder.replaced, args, model, options, split)
+        return _fit_each_into(folder, args, model, options, split)
 
 
-def _fit_each_into(out: Path, replaced: list, args, model, options, split: "_Split") -> int:
-    """`fit --each` writing into `out`, after removing the earlier run's files `replaced` (--overwrite)."""
+def _fit_each_into(folder, args, model, options, split: "_Split") -> int:
+    """`fit --each` writing into the `OutputFolder` `folder`, after removing the earlier run's
+    files it replaces (--overwrite)."""
     from ..fitting.each import fit_each
     from ..fitting.result import FailedFit
     from ..fitting.summary import summary_rows, write_summary
-    from .output import file_names, remove_earlier, save_fit
+    from .output import announce, file_names, remove_earlier, save_fit
 
     plots = args.plots or "summary"
     n = len(args.data)
@@ -108,7 +107,8 @@ def _fit_each_into(out: Path, replaced: list, args, model, options, split: "_Spl
         if why is not None and not isinstance(r, FailedFit):
             results[k] = FailedFit(r.recording.name if r.recording else f"#{k}", why, args.data[k], checks=list(r.checks))
     split.add("search")
-    remove_earlier(replaced)
+    out = announce(folder)
+    remove_earlier(folder.replaced)
     bar = _file_bar(n, args)
     folders = iter(file_names([r.recording.name for r in results if not isinstance(r, FailedFit) and r.recording is not None]))
     written: dict[int, str] = {}

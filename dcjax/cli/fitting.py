@@ -332,13 +332,14 @@ def fit_one(args, model, options) -> int:
     if args.plots not in (None, "none"):
         raise ValueError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
     with output_folder(args, fit_products, "an earlier fit's result.json") as folder:
-        out = announce(folder)
+        out = folder.path
         recs = [_load(d, args, model) for d in args.data]
         options |= _search(args, recs)
         result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
         failed = _no_finite_candidate(result)
         if failed:
             raise ValueError(failed)
+        announce(folder)  # where it writes, once there is something to write
         remove_earlier(folder.replaced)
         save_fit(result, out, plot=args.plots is None)
     _print_fit(result, recs, args, model, out)

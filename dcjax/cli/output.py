@@ -51,15 +51,14 @@ def remove_result(path: Path) -> None:
 
 def remove_earlier(files: list[Path]) -> None:
     """What --overwrite replaces: each earlier result (with its listed files) and any other file;
-    a sub-folder left empty is removed."""
+    a folder left empty is removed (an `--each` run's sub-folder: the locked --out never is)."""
     for f in files:
         if f.name == RESULT:
             remove_result(f)
         else:
             f.unlink(missing_ok=True)
-        parent = f.parent
-        if parent.name and f.name == RESULT and parent.is_dir() and not any(parent.iterdir()) and parent != Path("."):
-            parent.rmdir()
+        if f.parent.is_dir() and not any(f.parent.iterdir()):
+            f.parent.rmdir()
 
 
 def save_fit(result, folder: Path, plot: bool = True) -> None:

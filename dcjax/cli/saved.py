@@ -130,11 +130,12 @@ def sample_cmd(args) -> int:
     res = _result(args)
     priors = _named_priors(args.prior)
     with output_folder(args, lambda f: [f / "posterior.npz"], "an earlier posterior.npz") as folder:
-        out = announce(folder)
+        out = folder.path
         post = res.sample(draws=args.draws, chains=args.chains, warmup=args.warmup, seed=args.seed, priors=priors)
         u = res.uncertainty().uncertainties
         assert u is not None
         print(post.table(u.intervals(post.names)))
+        announce(folder)
         post.save(out / "posterior.npz", result_sha256=file_sha256(args.result))
         corner(post, out / "corner.png")
     bad = [n for n in post.names if not post.rhat[n] <= 1.01 or not post.ess_bulk[n] >= 400]

@@ -144,7 +144,7 @@ def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bo
     import warnings
 
     from ..io import datasets
-    from ..io.loading import LOAD_KEYS, load_recording
+    from ..io.loading import LOAD_KEYS, Reading, load_recording
 
     data = settings.data.get("data") or []
     if not isinstance(data, list):
@@ -174,7 +174,11 @@ def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bo
             bad = [key for key in kw if key not in LOAD_KEYS]
             if bad:
                 raise ResultFileError(f"{path}: settings.data[{k}].load has unknown field(s) {', '.join(bad)}")
-            rec = load_recording(file, **{**kw, "model": model})  # the result's model names the channels
+            try:
+                Reading.from_record(kw)  # the types of its reading options
+                rec = load_recording(file, **{**kw, "model": model})  # the result's model names the channels
+            except (TypeError, ValueError) as e:
+                raise ResultFileError(f"{path}: settings.data[{k}]: {(str(e).splitlines() or [''])[0]}") from None
         else:
             continue
         if "limit" in src:  # the limit fitted (given on the command line, or the sidecar's)

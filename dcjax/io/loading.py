@@ -3,14 +3,14 @@ MATLAB `.mat` files, columns mapped to a model's channels, units converted to SI
 preprocessing (time window, decimation, switch-on trimming) recorded with the data's origin."""
 
 import dataclasses
-import hashlib
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
 
 from ..models import Model, get_model
+from .files import file_sha256
 from .recording import Recording, read_sidecar, trim_switch_on
 from .table import Table, read_table
 from .units import SI_UNITS, UNITS, known_unit, select_channels, unit_factor
@@ -82,9 +82,38 @@ class Reading:
 
     @classmethod
     def from_record(cls, record: Mapping | None) -> "Reading":
-        """The reading a result's `load` record holds (what is kept, window/every/trim, aside)."""
+        """The reading a result's `load` record holds (what is kept, window/every/trim, aside),
+        each field of its type (a one-line error naming the field where not)."""
         names = {f.name for f in dataclasses.fields(cls)}
-        return cls(**{k: v for k, v in (record or {}).items() if k in names and v is not None})
+        given = {k: v for k, v in (record or {}).items() if k in names and v is not None}
+        for k, v in given.items():
+            check, what = RECORD_FIELDS[k]
+            if not check(v):
+                raise ValueError(f"load.{k} of a result's data must be {what}, got {v!r}"[:200])
+        return cls(**given)
+
+
+def _mapping(values) -> Callable:
+    return lambda v: (
+        isinstance(v, Mapping) and all(isinstance(k, str) and isinstance(x, values) and not isinstance(x, bool) for k, x in v.items())
+    )
+
+
+def _number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+RECORD_FIELDS = {  # a `Reading` field of a result's "load" record: its check and what it must be
+    "columns": (_mapping((str, int)), "an object of channel -> column"),
+    "units": (_mapping(str), "an object of channel -> unit"),
+    "scale": (_mapping((int, float)), "an object of channel -> factor"),
+    "dt": (_number, "a number"),
+    "rate": (_number, "a number"),
+    "delimiter": (lambda v: isinstance(v, str), "a string"),
+    "decimal": (lambda v: isinstance(v, str), "a string"),
+    "constants": (_mapping((int, float)), "an object of input -> number"),
+    "drop_nan": (lambda v: isinstance(v, bool), "true or false"),
+}
 
 
 def _finite_rows(chans: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
@@ -95,10 +124,6 @@ def _finite_rows(chans: dict[str, np.ndarray], where: str) -> dict[str, np.ndarr
     bad = [c for c, v in chans.items() if not np.all(np.isfinite(v))]
     warnings.warn(f"{where}: dropped {int((~keep).sum())} of {keep.size} rows with NaN/inf (in {', '.join(bad)})", stacklevel=3)
     return {c: v[keep] for c, v in chans.items()}
-
-
-def sha256(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def _window(text_or_pair) -> tuple[float, float] | None:
@@ -269,10 +294,10 @@ def load_recording(
 def _source(path: Path, load: dict, name: str) -> dict:
     """What a result records of a file it fitted: its path, size and sha256 (and its sidecar's),
     how it was read (`load`) and the recording's name."""
-    source = {"path": str(path.resolve()), "sha256": sha256(path), "bytes": path.stat().st_size, "load": load, "name": name}
+    source = {"path": str(path.resolve()), "sha256": file_sha256(path), "bytes": path.stat().st_size, "load": load, "name": name}
     sidecar = path.with_suffix(".json")
     if sidecar.is_file() and sidecar != path:
-        source["sidecar_sha256"] = sha256(sidecar)
+        source["sidecar_sha256"] = file_sha256(sidecar)
     return source
 
 

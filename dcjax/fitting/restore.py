@@ -188,6 +188,9 @@ def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bo
     return out
 
 
+UNSIZED_HASH_BYTES = 1 << 30
+
+
 def _changed(src: Fields, file: Path) -> str | None:
     """Why a recorded data file cannot be taken for the fitted one (None: its size, sha256 and
     its sidecar's sha256 are the recorded ones). Only a regular file's bytes are hashed."""
@@ -198,6 +201,8 @@ def _changed(src: Fields, file: Path) -> str | None:
     size = src.data.get("bytes")
     if size is not None and size != file.stat().st_size:
         return "changed since the fit (its size differs)"
+    if size is None and file.stat().st_size > UNSIZED_HASH_BYTES:  # a 0.3 result records no size: hash no huge file on its word
+        return f"has no recorded size, and at {file.stat().st_size / 2**30:.1f} GiB is not hashed to check it"
     sha = src.data.get("sha256")
     if not isinstance(sha, str):
         return "has no recorded sha256 to check it by"

@@ -13,7 +13,7 @@ from ..models import Model, get_model
 from .files import file_sha256
 from .recording import Recording, read_sidecar, trim_switch_on
 from .table import Table, read_table
-from .units import SI_UNITS, UNITS, known_unit, select_channels, unit_factor
+from .units import select_channels, unconverted_units
 
 TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
 
@@ -273,7 +273,8 @@ def load_recording(
     unmeasured = tuple(s for s in m.states if s not in needed)  # read where present: an initial state
     chans = select_channels(table.columns, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate,
                             inputs=tuple(m.inputs), optional=unmeasured)  # fmt: skip
-    unconverted_units(table, chans, columns, units, m, path.name, timed=dt is not None or rate is not None)
+    unconverted_units(list(table.columns), table.units, "units line" if table.units_line is not None else "header", chans, columns,
+                      units, m.quantities, path.name, timed=dt is not None or rate is not None)  # fmt: skip
     if drop_nan:
         chans = _finite_rows(chans, path.name)
     else:
@@ -318,35 +319,3 @@ def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> None:
     raise DataError("nan", f"{where}: {at}: {c} is {'NaN' if np.isnan(chans[c][k]) else 'inf'} (a missing or non-finite field; "
                            f"{int(np.sum(~np.logical_and.reduce([np.isfinite(v) for v in chans.values()])))} rows in all; "
                            "drop_nan=True / --drop-nan drops such rows)")  # fmt: skip
-
-
-def unconverted_units(table: Table, chans, columns, units, model: Model, where: str, timed: bool = False) -> None:
-    """A one-line warning for each channel read whose column the file gives a unit (its units
-    line, or its header: `speed_rpm`, `I [mA]`) that nothing converts: a unit other than the
-    channel's SI unit that `units` does not name, or a unit dcjax does not know."""
-    headers = list(table.columns)
-    columns, units = dict(columns or {}), dict(units or {})
-    for c in chans:
-        if c in units or (c == "t" and timed):
-            continue
-        src = str(columns.get(c, c))
-        name = src if src in table.columns else headers[int(src)] if src.isdigit() and int(src) < len(headers) else None
-        stated = table.units.get(name) if name is not None else None
-        if not stated or stated in ("-", "#") and c != "t":
-            continue
-        by = "units line" if table.units_line is not None else "header"
-        quantity = "time" if c == "t" else model.quantities.get(c)
-        si = SI_UNITS.get(quantity or "", "")
-        if not known_unit(stated):
-            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {stated!r}, which dcjax does not know: it is read "
-                          f"as {si or 'SI'}; convert it (units=/--units {c}=UNIT, scale=/--scale {c}=FACTOR) or check it", stacklevel=3)  # fmt: skip
-            continue
-        try:
-            factor = unit_factor(c, stated, quantity)
-        except ValueError:
-            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {stated!r}, not one of {quantity or 'its quantity'} "
-                          f"({', '.join(UNITS.get(quantity or '', {})) or 'SI'}): check the column mapping", stacklevel=3)  # fmt: skip
-            continue
-        if factor != 1.0:
-            warnings.warn(f"{where}: column {name!r} ({c}) is in {stated} by its {by}, but read as {si or 'SI'}: units=/--units "
-                          f"{c}={stated} converts it", stacklevel=3)  # fmt: skip

@@ -153,3 +153,37 @@ def select_channels(
         factor = unit_factor(c, units[c], "time" if c == "t" else quantities.get(c)) if c in units else 1.0
         out[c] = np.asarray(col, dtype=np.float64) * factor * factors.get(c, 1.0)
     return out
+
+
+def unconverted_units(headers: list[str], stated: dict[str, str], by: str, chans, columns, units, quantities: dict, where: str,
+                      timed: bool = False) -> None:  # fmt: skip
+    """A one-line warning for each channel read (`chans`) whose column the file gives a unit
+    (`stated`, header -> unit, from its units line or its header name: `by`) that nothing
+    converts: a unit other than the channel's SI unit that `units` does not name, or a unit dcjax
+    does not know. `columns` maps the channels as `select_channels` took them."""
+    import warnings
+
+    columns, units = dict(columns or {}), dict(units or {})
+    for c in chans:
+        if c in units or (c == "t" and timed):
+            continue
+        src = str(columns.get(c, c))
+        name = src if src in stated or src in headers else headers[int(src)] if src.isdigit() and int(src) < len(headers) else None
+        unit = stated.get(name) if name is not None else None
+        if not unit or (unit in ("-", "#") and c != "t"):  # dimensionless; a time column of sample numbers is named
+            continue
+        quantity = "time" if c == "t" else quantities.get(c)
+        si = SI_UNITS.get(quantity or "", "SI")
+        if not known_unit(unit):
+            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, which dcjax does not know: it is read "
+                          f"as {si}; convert it (units=/--units {c}=UNIT, scale=/--scale {c}=FACTOR) or check it", stacklevel=3)  # fmt: skip
+            continue
+        try:
+            factor = unit_factor(c, unit, quantity)
+        except ValueError:
+            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, not one of {quantity or 'its quantity'} "
+                          f"({', '.join(UNITS.get(quantity or '', {})) or si}): check the column mapping", stacklevel=3)  # fmt: skip
+            continue
+        if factor != 1.0:
+            warnings.warn(f"{where}: column {name!r} ({c}) is in {unit} by its {by}, but read as {si}: units=/--units {c}={unit} "
+                          "converts it", stacklevel=3)  # fmt: skip

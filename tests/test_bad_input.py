@@ -255,6 +255,9 @@ def test_a_results_sizes_allocate_nothing_and_its_data_are_checked(saved, tmp_pa
     assert "no recording" in one_line(capsys.readouterr().err)
     assert cli.main(["report", str(res), "--uncertainty", "--allow-changed-data"]) == 0
     assert cli.main(["report", str(res), "--uncertainty", "--data", str(data)]) == 0
+    other = edited(saved, tmp_path / "other", lambda d: d["settings"]["data"][0].__setitem__("path", "/etc/hostname"))
+    with pytest.warns(UserWarning, match=r"its data file /etc/hostname (changed since the fit|is not there)"):
+        assert dcjax.load_result(other).recordings == []  # another file is never parsed (nor shown in an error)
     moved = tmp_path / "elsewhere"
     shutil.copytree(tmp_path / "fit", moved / "fit")  # a result moved without its data: said, not guessed
     with pytest.warns(UserWarning, match="is not there: loaded without it"):
@@ -346,6 +349,17 @@ def test_an_odrive_export_reads_as_it_comes(tmp_path):
     named = dcjax.load_recording(f, columns={"t": "timestep (8Hz)", "u_a": "voltage", "omega": "velocity"}, units={"t": "s", "omega": "turns/s"},
                                  drop_nan=True, model=speed_only)  # the header of the comment line  # fmt: skip
     np.testing.assert_allclose(named.omega, rec.omega * 2 * np.pi)
+
+
+@pytest.mark.slow
+def test_nd_auto_takes_md1_with_its_fitted_starts(tmp_path):
+    """Paper Section 5's automatic ND on MD1 (a guide's command), whose noisy channels start
+    fitted by default: it refused them; now its reference starts from the fitted state."""
+    out = tmp_path / "o"
+    assert cli.main(["fit", str(datasets.DATA_DIR / "MD1.csv"), "--runs", "2", "--budget", "14000", "--nd", "auto", "--bounds", "table8", "--offset", "i_a",
+                     "--plots", "none", "--out", str(out)]) == 0  # fmt: skip
+    res = dcjax.load_result(out / "result.json")
+    assert res.settings["nd_auto"]["chosen"] == res.settings["nd"] and {"y0_i_a", "y0_omega"} <= set(res.names)
 
 
 # -- subprocesses: two writers at once, an interrupt ---------------------------------------------------

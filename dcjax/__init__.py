@@ -21,6 +21,7 @@ jax.config.update("jax_enable_x64", True)
 from .analysis.design import design_input  # noqa: E402
 from .analysis.estimate import initial_estimate  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
+from .errors import ConfigError, DataError, DcjaxError, ModelError  # noqa: E402
 from .fitting.each import fit_each  # noqa: E402
 from .fitting.fit import fit  # noqa: E402
 from .fitting.observation import Observation  # noqa: E402
@@ -99,6 +100,10 @@ __all__ = [
     "use_host_devices",
     "use_compiled_loops",
     "use_compilation_cache",
+    "DcjaxError",
+    "ConfigError",
+    "ModelError",
+    "DataError",
 ]
 
 

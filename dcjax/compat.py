@@ -21,6 +21,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .deprecation import warn_deprecated
+from .errors import ConfigError
 from .fitting.each import fit_each
 from .fitting.fit import fit
 from .fitting.result import FitResult
@@ -58,14 +59,14 @@ class Params(eqx.Module):
     def from_array(cls, x: Float[ArrayLike, "*batch P"]) -> "Params":
         x = jnp.asarray(x, dtype=jnp.float64)
         if x.ndim == 0 or x.shape[-1] != len(NAMES):
-            raise ValueError(f"parameter vector must have {len(NAMES)} entries {NAMES}, got shape {x.shape}")
+            raise ConfigError(f"parameter vector must have {len(NAMES)} entries {NAMES}, got shape {x.shape}")
         return cls(*(x[..., k] for k in range(len(NAMES))))
 
     @classmethod
     def from_dict(cls, d: dict) -> "Params":
         missing = [n for n in NAMES if n not in d]
         if missing:
-            raise ValueError(f"missing parameters {missing}; need all of {NAMES}")
+            raise ConfigError(f"missing parameters {missing}; need all of {NAMES}")
         return cls(*(jnp.asarray(d[n], dtype=jnp.float64) for n in NAMES))
 
     def to_array(self) -> Float[Array, "*batch P"]:
@@ -108,7 +109,7 @@ def legacy_parameters(recordings, model: Model, bounds, fixed, x0, precision) ->
         else:
             arr = np.asarray(precision, float).reshape(-1)
             if arr.shape != (model.n_params,):
-                raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {precision!r}")
+                raise ConfigError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {precision!r}")
             given = dict(zip(model.names, arr))
         for n, v in given.items():
             params[n].set(precision=v)
@@ -118,11 +119,11 @@ def legacy_parameters(recordings, model: Model, bounds, fixed, x0, precision) ->
 def _recordings(recording, model, weights, joint_weights, i_limit) -> list[Recording]:
     recs = list(recording) if isinstance(recording, (list, tuple)) else [recording]
     if not recs or not all(isinstance(r, Recording) for r in recs):
-        raise ValueError("recording must be a dcjax.Recording or a non-empty list of them")
+        raise ConfigError("recording must be a dcjax.Recording or a non-empty list of them")
     if joint_weights is not None:
         joint_weights = [float(w) for w in joint_weights]
         if len(joint_weights) != len(recs) or any(not w >= 0 for w in joint_weights) or sum(joint_weights) <= 0:
-            raise ValueError("joint_weights needs one non-negative weight per recording, not all zero")
+            raise ConfigError("joint_weights needs one non-negative weight per recording, not all zero")
     out = []
     for k, r in enumerate(recs):
         if i_limit is not None:
@@ -130,7 +131,7 @@ def _recordings(recording, model, weights, joint_weights, i_limit) -> list[Recor
         if weights is not None:
             w = [float(v) for v in weights]
             if len(w) != len(model.outputs):
-                raise ValueError(f"weights must be {len(model.outputs)} numbers (one per channel {model.outputs}), got {weights!r}")
+                raise ConfigError(f"weights must be {len(model.outputs)} numbers (one per channel {model.outputs}), got {weights!r}")
             r = with_weights(r, dict(zip(model.outputs, w)))
         if joint_weights is not None:
             r = with_weights(r, joint_weight=joint_weights[k])
@@ -204,13 +205,13 @@ def identify_each(recordings, bounds=None, x0=None, *, method="de-rand-1-exp", i
     bounds = list(bounds) if bounds is not None else [None] * len(recs)
     x0 = list(x0) if x0 is not None else [None] * len(recs)
     if len(bounds) != len(recs) or len(x0) != len(recs):
-        raise ValueError("bounds and x0 need one entry per recording")
+        raise ConfigError("bounds and x0 need one entry per recording")
     params = [legacy_parameters([r], m, b, fixed, s, precision)[0] for r, b, s in zip(recs, bounds, x0)]
     out = fit_each(recs, m, params, _with_generations(make_strategy(method, pop_size=pop_size), generations),
                    integrator=get_integrator(integrator, nd), runs=runs, budget=budget, seed=seed, memory=get_memory(memory), polish=polish)  # fmt: skip
     for r in out:
         if not isinstance(r, FitResult):
-            raise ValueError(f"{r.name}: {r.error}")
+            raise ConfigError(f"{r.name}: {r.error}")
     return out  # pyright: ignore[reportReturnType]
 
 
@@ -234,13 +235,13 @@ def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0,
     """Deprecated (0.1): `dcjax.fit_each` of recordings of equal length."""
     warn_deprecated("dcjax.fitting.fleet.identify_fleet(...)", "dcjax.fit_each(...)")
     if not recordings or not all(isinstance(r, Recording) for r in recordings):
-        raise ValueError("recordings must be a non-empty list of dcjax.Recording")
+        raise ConfigError("recordings must be a non-empty list of dcjax.Recording")
     if len({len(r) for r in recordings}) != 1:
-        raise ValueError(f"fleet recordings must have equal length, got lengths {sorted({len(r) for r in recordings})}")
+        raise ConfigError(f"fleet recordings must have equal length, got lengths {sorted({len(r) for r in recordings})}")
     if {r.limit is None for r in recordings} == {True, False}:
-        raise ValueError("either every recording of a fleet has a current limit or none has")
+        raise ConfigError("either every recording of a fleet has a current limit or none has")
     if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
-        raise ValueError(f"runs must be a positive integer, got {runs!r}")
+        raise ConfigError(f"runs must be a positive integer, got {runs!r}")
     b = options.pop("bounds", None)
     import warnings
 

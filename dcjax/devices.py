@@ -17,6 +17,8 @@ from pathlib import Path
 
 import jax
 
+from .errors import ConfigError
+
 
 def use_host_devices(n: int | None = None) -> int:
     """Ask for `n` (default: one per core) XLA CPU devices; returns the count JAX then has.
@@ -67,7 +69,7 @@ def use_compiled_loops(max_bytes: int = 1 << 24) -> bool:
     computation (the CLI and the experiments do). Leaves `XLA_FLAGS` alone where the user already
     set `xla_backend_extra_options`. Returns whether a threshold is in force."""
     if not isinstance(max_bytes, int) or isinstance(max_bytes, bool) or max_bytes < 1:
-        raise ValueError(f"max_bytes must be a positive integer, got {max_bytes!r}")
+        raise ConfigError(f"max_bytes must be a positive integer, got {max_bytes!r}")
     flags = os.environ.get("XLA_FLAGS", "")
     if "xla_backend_extra_options" in flags:
         return LOOP_OPTION in flags

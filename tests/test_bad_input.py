@@ -6,6 +6,7 @@ asserts the one line (no traceback) and what is (not) on disk afterwards."""
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -25,9 +26,11 @@ EVIL = "import pathlib\npathlib.Path({marker!r}).write_text('ran')\nimport dcjax
 
 
 def one_line(err: str) -> str:
-    """stderr's one error line (no traceback)."""
+    """stderr's one error line (no traceback), a `dcjax.DcjaxError`'s (another exception's line
+    names its type: `dcjax: error: KeyError: ...`)."""
     lines = [x for x in err.strip().splitlines() if x.startswith("dcjax: error")]
     assert len(lines) == 1 and "Traceback" not in err, err
+    assert not re.match(r"dcjax: error: [A-Za-z]+(Error|Exception): ", lines[0]), lines[0]
     return lines[0]
 
 

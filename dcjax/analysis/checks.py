@@ -33,7 +33,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..io.recording import DataError, Recording
+from ..errors import DataError
+from ..io.recording import Recording
 from ..models import Model
 
 ERROR, WARNING = "error", "warning"
@@ -63,7 +64,7 @@ class Finding:
 
 def from_error(error: Exception) -> Finding | None:
     """The finding a `DataError` carries (NaN, bad times, a dead channel), else None."""
-    if isinstance(error, DataError):
+    if isinstance(error, DataError) and error.check:
         return Finding(error.check, ERROR, str(error).partition(": ")[2] or str(error))
     return None
 

@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..compiling import filter_jit
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from ..simulation.integrators import RK4
@@ -76,7 +77,7 @@ def input_channels(model: Model, t: np.ndarray, u, given: Mapping | None = None,
     names = tuple(inputs) if inputs is not None else tuple(c for c in model.inputs if c not in given)
     u = np.asarray(u, float).reshape(len(t), -1)
     if u.shape[1] != len(names):
-        raise ValueError(f"inputs: {len(names)} designed input(s) ({', '.join(names)}), got {u.shape[1]} column(s)")
+        raise ConfigError(f"inputs: {len(names)} designed input(s) ({', '.join(names)}), got {u.shape[1]} column(s)")
     chans = {c: np.broadcast_to(np.asarray(given.get(c, 0.0), float), t.shape).copy() for c in model.inputs}
     chans.update({c: u[:, k] for k, c in enumerate(names)})
     return chans
@@ -205,7 +206,7 @@ def design_input(
     free = jnp.asarray([m.names.index(k) for k in free_names])
     sc = jnp.asarray([scales[k] for k in free_names])
     if limit is not None and not m.has_limit:
-        raise ValueError(f"limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
+        raise ConfigError(f"limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
     base = template_problem(m, params, t, np.tile(hi, (n, 1)), limit, given, names)  # a full step: its peaks set the default noise
     sigma = _noise(m, base, noise)
     crit = criterion if criterion in ("d", "a") else "names"
@@ -236,9 +237,9 @@ def _given(m: Model, given) -> dict:
     given = dict(given or {})
     bad = [c for c in given if c not in m.inputs]
     if bad:
-        raise ValueError(f"given: unknown input(s) {bad}; model {m.name} has inputs {', '.join(m.inputs)}")
+        raise ConfigError(f"given: unknown input(s) {bad}; model {m.name} has inputs {', '.join(m.inputs)}")
     if m.inputs and all(c in given for c in m.inputs):
-        raise ValueError(f"given: every input of model {m.name} is given ({', '.join(m.inputs)}); leave at least one to design")
+        raise ConfigError(f"given: every input of model {m.name} is given ({', '.join(m.inputs)}); leave at least one to design")
     return given
 
 
@@ -247,22 +248,22 @@ def _grid(m: Model, params, duration, dt, u_range, hold, names: tuple[str, ...])
     m.check_names(params)
     missing = [k for k in m.names if k not in params]
     if missing:
-        raise ValueError(f"params must give every parameter of model {m.name}; missing {', '.join(missing)}")
+        raise ConfigError(f"params must give every parameter of model {m.name}; missing {', '.join(missing)}")
     if not m.inputs:
-        raise ValueError(f"model {m.name} has no input to design")
+        raise ConfigError(f"model {m.name} has no input to design")
     for what, v in (("duration", duration), ("dt", dt)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{what} must be a positive number of seconds, got {v!r}")
+            raise ConfigError(f"{what} must be a positive number of seconds, got {v!r}")
     n = int(round(duration / dt)) + 1
     if n < 10:
-        raise ValueError(f"duration / dt gives {n} samples; need at least 10")
+        raise ConfigError(f"duration / dt gives {n} samples; need at least 10")
     if isinstance(u_range, Mapping):
         bad = [c for c in u_range if c not in names]
         if bad:
-            raise ValueError(f"u_range: {bad} not designed; the designed inputs are {', '.join(names)}")
+            raise ConfigError(f"u_range: {bad} not designed; the designed inputs are {', '.join(names)}")
         lacking = [c for c in names if c not in u_range]
         if lacking:
-            raise ValueError(f"u_range: no range for the designed input(s) {', '.join(lacking)} (give (u_min, u_max) for each)")
+            raise ConfigError(f"u_range: no range for the designed input(s) {', '.join(lacking)} (give (u_min, u_max) for each)")
         ranges = [u_range[c] for c in names]
     else:
         ranges = [u_range] * len(names)
@@ -271,13 +272,13 @@ def _grid(m: Model, params, duration, dt, u_range, hold, names: tuple[str, ...])
         try:
             lo[k], hi[k] = float(r[0]), float(r[1])
         except (TypeError, ValueError, IndexError):
-            raise ValueError(f"u_range of {c} must be (u_min, u_max), got {r!r}") from None
+            raise ConfigError(f"u_range of {c} must be (u_min, u_max), got {r!r}") from None
         if not (math.isfinite(lo[k]) and math.isfinite(hi[k]) and lo[k] < hi[k]):
-            raise ValueError(f"u_range of {c} must be (u_min, u_max) with u_min < u_max, got {r!r}")
+            raise ConfigError(f"u_range of {c} must be (u_min, u_max) with u_min < u_max, got {r!r}")
     hold = duration / 20 if hold is None else float(hold)
     per = int(round(hold / dt))
     if per < 1 or per >= n:
-        raise ValueError(f"hold must lie between dt ({dt:g} s) and the duration ({duration:g} s), got {hold!r}")
+        raise ConfigError(f"hold must lie between dt ({dt:g} s) and the duration ({duration:g} s), got {hold!r}")
     return n, lo, hi, per
 
 
@@ -289,14 +290,14 @@ def _free(m: Model, params, criterion, fixed, scale) -> tuple[tuple[str, ...], d
     scales.update({k: abs(float(v)) for k, v in (scale or {}).items()})
     free_names = tuple(k for k in m.names if k not in fixed and scales[k] > 0)
     if not free_names:
-        raise ValueError("no free parameter with a non-zero value or scale to design for")
+        raise ConfigError("no free parameter with a non-zero value or scale to design for")
     if criterion in ("d", "a"):
         return free_names, scales, np.ones(len(free_names))
     chosen = [c.strip() for c in str(criterion).split(",") if c.strip()]
     m.check_names(chosen)
     bad = [c for c in chosen if c not in free_names]
     if bad:
-        raise ValueError(f"criterion names {bad} are fixed or zero; free are {', '.join(free_names)}")
+        raise ConfigError(f"criterion names {bad} are fixed or zero; free are {', '.join(free_names)}")
     return free_names, scales, np.array([1.0 if k in chosen else 0.0 for k in free_names])
 
 
@@ -311,7 +312,7 @@ def _on_grid(u, n: int, what: str, d: int | None = None) -> np.ndarray:
         ok = u.shape == (n,)
         shape = f"{n}"
     if not ok or not np.all(np.isfinite(u)):
-        raise ValueError(f"{what} must be {shape} finite values on the design's grid, got shape {u.shape}")
+        raise ConfigError(f"{what} must be {shape} finite values on the design's grid, got shape {u.shape}")
     return u if d is None else u.reshape(n, -1)
 
 
@@ -423,7 +424,7 @@ def _noise(m: Model, prob: Problem, noise) -> jax.Array:
     if noise:
         m_bad = [c for c in noise if c not in m.outputs]
         if m_bad:
-            raise ValueError(f"noise: unknown channel(s) {m_bad}; model {m.name} measures {', '.join(m.outputs)}")
+            raise ConfigError(f"noise: unknown channel(s) {m_bad}; model {m.name} measures {', '.join(m.outputs)}")
     return jnp.asarray(out)
 
 
@@ -489,7 +490,7 @@ def evaluate_input(design: Design, model: Model | str | None, u, t: np.ndarray |
         constants = {c: v for c, v in design.given.items() if np.ndim(v) == 0}
         missing = [c for c in m.inputs if c not in u and c not in constants]
         if missing:
-            raise ValueError(f"evaluate_input: no samples of input(s) {', '.join(missing)}")
+            raise ConfigError(f"evaluate_input: no samples of input(s) {', '.join(missing)}")
         given = {**constants, **{c: np.asarray(u[c], float) for c in m.inputs if c in u and c not in names}}
         u = np.column_stack([np.asarray(u[c], float) for c in names])
     else:

@@ -31,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..compiling import filter_jit
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from ..models.parameters import Parameter, Parameters
@@ -101,7 +102,7 @@ def filtered_states(recording: Recording, model: Model, cutoff: float | None = N
     fs = 1.0 / h
     cutoff = 0.1 * fs if cutoff is None else float(cutoff)
     if not cutoff > 0:
-        raise ValueError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
+        raise ConfigError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
     y: dict[str, np.ndarray] = {}
     for s in model.states:
         if s in recording.channels:
@@ -112,7 +113,7 @@ def filtered_states(recording: Recording, model: Model, cutoff: float | None = N
             y[s] = np.gradient(y[src], h)
     missing = [s for s in model.states if s not in y]
     if missing:
-        raise ValueError(
+        raise ConfigError(
             f"{recording._where()}initial_estimate needs every state of model {model.name} measured or the derivative of a measured one; "
             f"missing {', '.join(missing)} (the recording has {', '.join(recording.channels)})"
         )
@@ -126,7 +127,7 @@ def _rows(recording, model, cutoff, order, border, decimate):
     n = len(recording)
     b = int(border)
     if 2 * b >= n - 3:
-        raise ValueError(f"{recording._where()}border {b} leaves too few of {n} samples")
+        raise ConfigError(f"{recording._where()}border {b} leaves too few of {n} samples")
     cut = slice(b, n - b if b else None)
     y, dy, u = ({k: v[cut] for k, v in d.items()} for d in (y, dy, u))
     return y, dy, u, int(decimate)
@@ -346,17 +347,17 @@ def initial_estimate(
     the model's preset). Returns `Parameters`: value, stderr, and `min`/`max` by `auto_range`."""
     m = get_model(model)
     if not isinstance(recording, Recording):
-        raise ValueError("recording must be a dcjax.Recording")
+        raise ConfigError("recording must be a dcjax.Recording")
     scored = recording
     recording = uniformly_sampled(recording)
     for name, v in (("order", order), ("decimate", decimate)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
-            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+            raise ConfigError(f"{name} must be a positive integer, got {v!r}")
     fs = 1.0 / _uniform(recording)
     if cutoff is not None and not (isinstance(cutoff, (int, float, np.number)) and cutoff > 0):
-        raise ValueError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
+        raise ConfigError(f"cutoff must be a positive frequency in Hz, got {cutoff!r}")
     if border is not None and (not isinstance(border, (int, np.integer)) or isinstance(border, bool) or border < 0):
-        raise ValueError(f"border must be a non-negative integer, got {border!r}")
+        raise ConfigError(f"border must be a non-negative integer, got {border!r}")
     base = start if start is not None else m.parameters()
     nonneg = np.array([p.positive or (math.isfinite(p.min) and p.min >= 0) for p in base.values()])
 
@@ -430,14 +431,14 @@ def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | 
             ests.append(initial_estimate(r, m))
         except Exception as e:  # a state neither measured nor a derivative, a singular regression: the preset, said once
             if not m.preset_names:
-                raise ValueError(f"bounds auto: {e}") from None
+                raise ConfigError(f"bounds auto: {e}") from None
             warnings.warn(f"bounds auto: {e}; using the model's preset {m.preset_names[0]} for {r.name or 'this recording'}", stacklevel=2)
             ests.append(m.parameters())
     lo = np.min([e.lower for e in ests], axis=0)
     hi = np.max([e.upper for e in ests], axis=0)
     bad = [n for n, a, b in zip(m.names, lo, hi) if not (math.isfinite(a) and math.isfinite(b))]
     if bad:
-        raise ValueError(
+        raise ConfigError(
             f"bounds auto: no range for {', '.join(bad)} (not seen by the regression and model {m.name} has no preset); give them with --bound/bounds"
         )
     start = {n: v for n, v in ests[0].start.items() if lo[m.names.index(n)] <= v <= hi[m.names.index(n)]}

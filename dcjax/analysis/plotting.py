@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..io.files import save_figure
 from ..io.units import SI_UNITS
 
@@ -53,7 +54,7 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
     outs = model.outputs
     recs = list(recordings if recordings is not None else result.recordings)
     if not recs:
-        raise ValueError("no recording to plot: pass recordings= (a loaded result keeps no data it could not find)")
+        raise ConfigError("no recording to plot: pass recordings= (a loaded result keeps no data it could not find)")
     if ax is not None:
         axes = list(np.atleast_1d(ax))
         sim = result.simulate(recs[0])

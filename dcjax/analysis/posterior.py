@@ -34,6 +34,7 @@ from blackjax.adaptation.base import get_filter_adapt_info_fn
 from jax.sharding import Mesh, PartitionSpec
 
 from ..compiling import filter_jit
+from ..errors import ConfigError
 from ..models.priors import Prior, prior_from_spec
 from ..models.space import Space
 from ..simulation.joint import JointProblem
@@ -142,9 +143,9 @@ class Posterior:
             names = tuple(str(n) for n in d["names"])
             draws = np.asarray(d["draws"], float)
         except (OSError, ValueError, KeyError) as e:
-            raise ValueError(f"{path}: not a posterior.npz of dcjax sample ({e})") from None
+            raise ConfigError(f"{path}: not a posterior.npz of dcjax sample ({e})") from None
         if draws.ndim != 3 or draws.shape[-1] != len(names):
-            raise ValueError(f"{path}: draws of shape {draws.shape} do not match its {len(names)} names")
+            raise ConfigError(f"{path}: draws of shape {draws.shape} do not match its {len(names)} names")
 
         def named(key):
             return dict(zip(names, map(float, d[key])))
@@ -197,7 +198,7 @@ def prior_term(space: Space, priors: "Mapping[str, Prior | str] | None") -> Prio
     priors = dict(priors or {})
     bad = [n for n in priors if n not in space.free_names]
     if bad:
-        raise ValueError(f"prior: {', '.join(bad)} is not a sampled parameter; the sampled ones are {', '.join(space.free_names)}")
+        raise ConfigError(f"prior: {', '.join(bad)} is not a sampled parameter; the sampled ones are {', '.join(space.free_names)}")
     index = tuple(space.names.index(n) for n in priors)
     parsed = tuple(jax.tree.map(jnp.asarray, prior_from_spec(p)) for p in priors.values())  # arrays: a new value, no recompile
     return PriorTerm(parsed, index, tuple(k in space.log for k in index))
@@ -306,16 +307,16 @@ def sample(
     devices where there are several (`chain_mesh`; `_over_chains`)."""
     for name, v, least in (("draws", draws, 1), ("chains", chains, 1), ("warmup", warmup, 0)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < least:
-            raise ValueError(f"{name} must be an integer >= {least}, got {v!r}")
+            raise ConfigError(f"{name} must be an integer >= {least}, got {v!r}")
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
-        raise ValueError(f"seed must be an integer, got {seed!r}")
+        raise ConfigError(f"seed must be an integer, got {seed!r}")
     if space.dim == 0:
-        raise ValueError("every parameter is fixed: nothing to sample")
+        raise ConfigError("every parameter is fixed: nothing to sample")
     x = jnp.asarray(x, dtype=jnp.float64)
     prior = prior_term(space, priors)
     for p, k in zip(prior.priors, prior.index):
         if not np.isfinite(float(p.log_density(x[k]))):
-            raise ValueError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
+            raise ConfigError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
     noise = fit_noise(x, target, loss)
     z0 = jnp.clip(space.to_unit(x), 0.0, 1.0)
     cov = _laplace(z0, target, noise, space, prior)

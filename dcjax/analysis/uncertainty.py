@@ -19,6 +19,7 @@ import numpy as np
 import optimistix as optx
 
 from ..compiling import filter_jit
+from ..errors import ConfigError
 from ..models.bounds import Bounds
 from ..models.space import Space, make_space
 from ..simulation.joint import JointProblem, joint_problem
@@ -306,9 +307,9 @@ def profile(
     model = target.problems[0].model
     space = bounds if isinstance(bounds, Space) else make_space(model, bounds)
     if name not in space.names:
-        raise ValueError(f"unknown parameter {name!r}; the fit's parameters are {', '.join(space.names)}")
+        raise ConfigError(f"unknown parameter {name!r}; the fit's parameters are {', '.join(space.names)}")
     if name in space.fixed:
-        raise ValueError(f"{name} is fixed; a profile needs a free parameter")
+        raise ConfigError(f"{name} is fixed; a profile needs a free parameter")
     k = space.names.index(name)
     free = np.array([j for j in space.free if j != k])
     lo, hi = np.asarray(space.bounds.lower)[free], np.asarray(space.bounds.upper)[free]

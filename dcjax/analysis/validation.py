@@ -3,6 +3,7 @@ and cross-validation between recordings of one drive (Section 4.2.6, Fig. 12).""
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model, get_model
 from ..simulation.integrators import Integrator
@@ -23,7 +24,7 @@ def stationary_instants(
         steady &= recording.t >= after
     idx = np.flatnonzero(steady)
     if idx.size < count:
-        raise ValueError(f"only {idx.size} stationary samples found (need {count}); loosen tol")
+        raise ConfigError(f"only {idx.size} stationary samples found (need {count}); loosen tol")
     return idx[np.round(np.linspace(0, idx.size - 1, count)).astype(int)]
 
 

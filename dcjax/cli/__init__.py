@@ -4,6 +4,7 @@ import os
 import sys
 import warnings
 
+from ..errors import DcjaxError
 from .args import _parser
 from .design import design_cmd
 from .each import fit_each_cmd
@@ -59,7 +60,7 @@ def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
         except BrokenPipeError:  # the reader went away (dcjax report RESULT.json | head): not an error
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes stdout
             return 0
-        except (ValueError, OSError) as e:
+        except (DcjaxError, OSError) as e:  # dcjax's one-line errors, and the system's (a file, a folder)
             print(f"dcjax: error: {e}", file=sys.stderr)
             return 2
         except Exception as e:  # never a traceback from the command line

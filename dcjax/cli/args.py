@@ -2,6 +2,7 @@
 
 import argparse
 
+from ..errors import ConfigError
 from ..io.units import parse_mapping
 
 
@@ -9,9 +10,9 @@ def _floats(text: str, what: str, n: int | None = None) -> list[float]:
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
-        raise ValueError(f"{what} must be comma-separated numbers, got {text!r}") from None
+        raise ConfigError(f"{what} must be comma-separated numbers, got {text!r}") from None
     if n is not None and len(values) != n:
-        raise ValueError(f"{what} must be {n} comma-separated numbers, got {len(values)}")
+        raise ConfigError(f"{what} must be {n} comma-separated numbers, got {len(values)}")
     return values
 
 
@@ -21,7 +22,7 @@ def _named_floats(text: str | None, what: str) -> dict[str, float]:
         try:
             out[k] = float(v)
         except ValueError:
-            raise ValueError(f"{what}: value of {k} must be a number, got {v!r}") from None
+            raise ConfigError(f"{what}: value of {k} must be a number, got {v!r}") from None
     return out
 
 
@@ -31,7 +32,7 @@ def _names(text: str | None, what: str) -> tuple[str, ...]:
         return ()
     names = tuple(n.strip() for n in text.split(","))
     if not all(names):
-        raise ValueError(f"{what} must be comma-separated names, got {text!r}")
+        raise ConfigError(f"{what} must be comma-separated names, got {text!r}")
     return names
 
 
@@ -42,9 +43,9 @@ def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]
         try:
             out[k] = (float(lo), float(hi))
         except ValueError:
-            raise ValueError(f"{what}: {k} needs LOWER:UPPER, got {v!r}") from None
+            raise ConfigError(f"{what}: {k} needs LOWER:UPPER, got {v!r}") from None
         if not sep:
-            raise ValueError(f"{what}: {k} needs LOWER:UPPER, got {v!r}")
+            raise ConfigError(f"{what}: {k} needs LOWER:UPPER, got {v!r}")
     return out
 
 
@@ -56,7 +57,7 @@ def _named_priors(items: list[str] | None) -> dict[str, str]:
     for item in [part for text in items or [] for part in text.split(";") if part.strip()]:
         name, sep, spec = item.partition("=")
         if not sep or not name.strip():
-            raise ValueError(f"--prior must be NAME=SPEC, e.g. J=lognormal(1e-4,0.5), got {item!r}")
+            raise ConfigError(f"--prior must be NAME=SPEC, e.g. J=lognormal(1e-4,0.5), got {item!r}")
         out[name.strip()] = prior_from_spec(spec).spec
     return out
 

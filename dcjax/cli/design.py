@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+from ..errors import ConfigError
 from .args import _named_floats, _named_ranges, _names
 from .output import announce, output_folder
 from .saved import _result
@@ -20,12 +21,12 @@ def design_cmd(args) -> int:
         noise = noise_from_fit(res)
     rec = res.recording
     if args.limit is not None and not m.has_limit:
-        raise ValueError(f"--limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
+        raise ConfigError(f"--limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
     limit = args.limit if args.limit is not None else res.settings.get("i_limit") or (rec.limit if rec is not None else None)
     limit = limit if m.has_limit else None
     for name, v in (("--starts", args.starts), ("--steps", args.steps)):
         if v < 1:
-            raise ValueError(f"{name} must be a positive integer, got {v}")
+            raise ConfigError(f"{name} must be a positive integer, got {v}")
     t = np.arange(int(round(args.duration / args.dt)) + 1) * args.dt
     given = _given_inputs(m, rec, t, args)
     names = tuple(c for c in m.inputs if c not in given)
@@ -41,7 +42,7 @@ def design_cmd(args) -> int:
             steps=args.steps, seed=args.seed, baselines=list(files.values()),
         )  # fmt: skip
     except np.linalg.LinAlgError as e:
-        raise ValueError(f"design: the information matrix of the fitted parameters could not be decomposed ({e}): the fit's "
+        raise ConfigError(f"design: the information matrix of the fitted parameters could not be decomposed ({e}): the fit's "
                          "parameters give a simulation the design cannot differentiate; check the fit (dcjax report) or --noise") from None  # fmt: skip
     top = np.array([u_range[c][1] for c in names])
     baselines = {"step to " + ", ".join(f"{c}={v:g}" for c, v in zip(names, top)): evaluate_input(design, m, np.tile(top, (len(t), 1)))}
@@ -90,19 +91,19 @@ def _given_inputs(m, rec, t, args) -> dict:
     consts = {**(rec.constants if rec is not None else {}), **_named_floats(args.const, "--const")}
     bad = [c for c in consts if c not in m.inputs]
     if bad:
-        raise ValueError(f"--const: {', '.join(bad)} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
+        raise ConfigError(f"--const: {', '.join(bad)} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
     given: dict = dict(consts)
     for c in _names(args.keep, "--keep"):
         if c not in m.inputs:
-            raise ValueError(f"--keep: {c} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
+            raise ConfigError(f"--keep: {c} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
         if rec is None:
-            raise ValueError(f"--keep {c}: the fitted recording cannot be read again (its file moved?); design {c} too, or --const {c}=V")
+            raise ConfigError(f"--keep {c}: the fitted recording cannot be read again (its file moved?); design {c} too, or --const {c}=V")
         if c in given:
             continue
         tr = np.asarray(rec.t - rec.t[0])
         given[c] = np.asarray(rec[c])[np.clip(np.searchsorted(tr, t + 1e-9 * (t[1] - t[0]), side="right") - 1, 0, len(tr) - 1)]
     if m.inputs and all(c in given for c in m.inputs):
-        raise ValueError(f"--keep/--const: every input of model {m.name} is given ({', '.join(m.inputs)}); leave one to design")
+        raise ConfigError(f"--keep/--const: every input of model {m.name} is given ({', '.join(m.inputs)}); leave one to design")
     return given
 
 
@@ -111,7 +112,7 @@ def _ranges(names, args) -> dict[str, tuple[float, float]]:
     given = _named_ranges(args.range, "--range")
     bad = [c for c in given if c not in names]
     if bad:
-        raise ValueError(f"--range: {', '.join(bad)} is not designed; the designed inputs are {', '.join(names)}")
+        raise ConfigError(f"--range: {', '.join(bad)} is not designed; the designed inputs are {', '.join(names)}")
     out = {}
     for c in names:
         if c in given:
@@ -119,7 +120,7 @@ def _ranges(names, args) -> dict[str, tuple[float, float]]:
         elif args.umin is not None and args.umax is not None:
             out[c] = (args.umin, args.umax)
         else:
-            raise ValueError(f"no range for input {c}: give --umin and --umax, or --range {c}=LO:HI")
+            raise ConfigError(f"no range for input {c}: give --umin and --umax, or --range {c}=LO:HI")
     return out
 
 
@@ -137,13 +138,13 @@ def _baseline_input(path: str, t, names: tuple[str, ...]):
     try:
         table = np.genfromtxt(path, delimiter=",", names=True, dtype=float)
     except (OSError, ValueError) as e:
-        raise ValueError(f"--baseline {path}: {e}") from None
+        raise ConfigError(f"--baseline {path}: {e}") from None
     cols = table.dtype.names or ()
     if "t" in cols and all(c in cols for c in names):
         tb = np.atleast_1d(table["t"])
         ub = np.column_stack([np.atleast_1d(table[c]) for c in names])
         if not (np.all(np.isfinite(tb)) and np.all(np.isfinite(ub)) and np.all(np.diff(tb) > 0)):
-            raise ValueError(f"--baseline {path}: t must increase and t, {', '.join(names)} be finite")
+            raise ConfigError(f"--baseline {path}: t must increase and t, {', '.join(names)} be finite")
         if tb[-1] - tb[0] < t[-1] - 1e-9 * (t[1] - t[0]):
             print(f"note: --baseline {path} lasts {tb[-1] - tb[0]:g} s, shorter than the design's {t[-1]:g} s: its last level "
                   f"{', '.join(f'{v:g}' for v in ub[-1])} is held to the end")  # fmt: skip
@@ -152,4 +153,4 @@ def _baseline_input(path: str, t, names: tuple[str, ...]):
     if len(names) == 1 and len(cols) == 1 and np.atleast_1d(table[cols[0]]).shape == t.shape:
         return np.atleast_1d(table[cols[0]])
     one = f", or one column of {len(t)} values" if len(names) == 1 else ""
-    raise ValueError(f"--baseline {path}: needs columns t and {', '.join(names)}{one}; has {', '.join(cols) or 'none'}")
+    raise ConfigError(f"--baseline {path}: needs columns t and {', '.join(names)}{one}; has {', '.join(cols) or 'none'}")

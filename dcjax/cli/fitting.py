@@ -4,6 +4,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
+from ..errors import ConfigError
 from ..io.units import parse_mapping
 from .args import _floats, _named_floats, _named_ranges, _names
 
@@ -48,7 +49,7 @@ def _nd(text: str):
     try:
         return int(text)
     except ValueError:
-        raise ValueError(f"--nd must be a positive integer or 'auto', got {text!r}") from None
+        raise ConfigError(f"--nd must be a positive integer or 'auto', got {text!r}") from None
 
 
 def _bounds(args, model, recs):
@@ -60,12 +61,12 @@ def _bounds(args, model, recs):
 
     recs = recs if isinstance(recs, list) else [recs]
     if (args.lower is None) != (args.upper is None):
-        raise ValueError("--lower and --upper must be given together")
+        raise ConfigError("--lower and --upper must be given together")
     start = {}
     given = {k: v for k, v in _named_ranges(args.bound, "--bound").items() if k in model.names or not _observed(k)}
     if args.lower is not None:
         if args.bounds is not None:
-            raise ValueError("give either --bounds or --lower/--upper, not both")
+            raise ConfigError("give either --bounds or --lower/--upper, not both")
         bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
     else:
         from ..fitting.vector import sidecar_preset
@@ -101,7 +102,7 @@ def _options(args, model) -> dict:
     nd = _nd(args.nd)
     if isinstance(model, DiscreteModel):
         if args.integrator is not None or nd != 1:
-            raise ValueError(
+            raise ConfigError(
                 f"model {model.name} is a discrete-time model (update(c, u, y, dt) per sample): --integrator and --nd do not apply"
             )
         integrator = None
@@ -109,10 +110,10 @@ def _options(args, model) -> dict:
         step = INTEGRATORS[args.integrator or "rk4"]
         integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
     if args.limit is not None and not model.has_limit:
-        raise ValueError(f"--limit: model {model.name} clamps no state (it has no Model.limited_state or clamp of its own); its states are "
+        raise ConfigError(f"--limit: model {model.name} clamps no state (it has no Model.limited_state or clamp of its own); its states are "
                          f"{', '.join(model.states)}")  # fmt: skip
     if args.local is not None and (args.each or len(args.data) < 2):
-        raise ValueError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
+        raise ConfigError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
     observation = Observation(get_loss(args.loss or "sse", args.normalize), parse_mapping(args.initial, "--initial"),
                               _names(args.offset, "--offset"), _names(args.delay, "--delay"),
                               None if args.measure is None else _names(args.measure, "--measure"),
@@ -174,16 +175,18 @@ def _file_params(args, model, rec):
     local = set(_names(args.local, "--local"))
     unknown = [n for n in local if n not in model.names and not _observed(n)]
     if unknown:
-        raise ValueError(f"--local: unknown parameter {', '.join(unknown)}; model {model.name} has {', '.join(model.names)} "
+        raise ConfigError(f"--local: unknown parameter {', '.join(unknown)}; model {model.name} has {', '.join(model.names)} "
                          "(and the fit's offset_CH, delay_IN)")  # fmt: skip
     if local and len(recs) < 2:
-        raise ValueError("--local needs a joint fit of several recordings (each gets its own value)")
+        raise ConfigError("--local needs a joint fit of several recordings (each gets its own value)")
     fixed_all = _named_floats(args.fix, "--fix")
     x0_all = _named_floats(args.x0, "--x0")
     for n, v in fixed_all.items():
         lo_n, hi_n = _named_ranges(args.bound, "--bound").get(n, (-float("inf"), float("inf")))
         if not lo_n <= v <= hi_n:
-            raise ValueError(f"--fix {n}={v:g} lies outside --bound {n}={lo_n:g}:{hi_n:g}: a known value is not searched; give one of them")
+            raise ConfigError(
+                f"--fix {n}={v:g} lies outside --bound {n}={lo_n:g}:{hi_n:g}: a known value is not searched; give one of them"
+            )
     fixed = {k: v for k, v in fixed_all.items() if not _observed(k)}
     x0 = {k: v for k, v in x0_all.items() if not _observed(k)}
     model.check_names(fixed, "fixed parameter")
@@ -330,7 +333,7 @@ def fit_one(args, model, options) -> int:
     from .output import announce, fit_products, output_folder, remove_earlier, save_fit
 
     if args.plots not in (None, "none"):
-        raise ValueError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
+        raise ConfigError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
     with output_folder(args, fit_products, "an earlier fit's result.json") as folder:
         out = folder.path
         recs = [_load(d, args, model) for d in args.data]
@@ -338,7 +341,7 @@ def fit_one(args, model, options) -> int:
         result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
         failed = _no_finite_candidate(result)
         if failed:
-            raise ValueError(failed)
+            raise ConfigError(failed)
         announce(folder)  # where it writes, once there is something to write
         remove_earlier(folder.replaced)
         save_fit(result, out, plot=args.plots is None)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError
 from .fitting import _load
 
 
@@ -157,7 +158,7 @@ def report_cmd(args) -> int:
         res = res.uncertainty()
     path = Path(args.posterior) if args.posterior else Path(args.result).parent / "posterior.npz"
     if args.posterior and not path.is_file():
-        raise ValueError(f"--posterior: no such file: {path}")
+        raise ConfigError(f"--posterior: no such file: {path}")
     post = Posterior.load(path) if path.is_file() else None
     if post is not None and post.result_sha256 != file_sha256(args.result):
         if not args.posterior:  # the file beside it belongs to another result (or a result changed since): not this one's
@@ -167,6 +168,6 @@ def report_cmd(args) -> int:
         else:
             print(f"note: --posterior {path} was not sampled from this result.json", file=sys.stderr)
     if post is not None and not set(post.names) <= set(res.names):
-        raise ValueError(f"--posterior: {path} holds draws of {', '.join(post.names)}, not of this result's parameters")
+        raise ConfigError(f"--posterior: {path} holds draws of {', '.join(post.names)}, not of this result's parameters")
     print(res.report(posterior=post))
     return 0

@@ -6,6 +6,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from ..analysis.checks import ERROR, batch_findings, from_error
+from ..errors import ConfigError
 from ..io.loading import load_recording
 from ..io.recording import Recording
 from ..models.parameters import Parameters
@@ -50,7 +51,7 @@ def fit_each(
     p = plan(model, method, observation=observation, integrator=integrator, runs=runs, budget=budget, seed=seed, memory=memory,
              polish=polish)  # fmt: skip
     if isinstance(params, (list, tuple)) and len(params) != len(items):
-        raise ValueError(f"params: one entry per recording ({len(items)}), got {len(params)}")
+        raise ConfigError(f"params: one entry per recording ({len(items)}), got {len(params)}")
     loader = load or (lambda path: load_recording(path, model=p.model))
     out: list = [None] * len(items)
     loaded: list = []

@@ -13,7 +13,8 @@ limit on the generations) with the strategy object (`dcjax.strategies.DERand1Exp
 from collections.abc import Sequence
 
 from ..analysis.checks import ERROR, recording_findings
-from ..io.recording import DataError, Recording
+from ..errors import ConfigError, DataError
+from ..io.recording import Recording
 from ..models import Model
 from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
@@ -29,7 +30,7 @@ def recordings_of(data) -> list[Recording]:
     """`data` as a non-empty list of recordings (one recording, or a list of them)."""
     items = list(data) if isinstance(data, (list, tuple)) else [data]
     if not items or not all(isinstance(r, Recording) for r in items):
-        raise ValueError("data must be a dcjax.Recording or a non-empty list of them")
+        raise ConfigError("data must be a dcjax.Recording or a non-empty list of them")
     return [r for r in items if isinstance(r, Recording)]
 
 

@@ -23,6 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..analysis.checks import noise_step
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model
 from ..simulation.losses import Loss, get_loss
@@ -59,22 +60,22 @@ class Observation:
 
     def __post_init__(self):
         if not isinstance(self.loss, (str, Loss)):
-            raise ValueError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss (dcjax.L1(), dcjax.Huber(delta=0.1)), got {self.loss!r}")
+            raise ConfigError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss (dcjax.L1(), dcjax.Huber(delta=0.1)), got {self.loss!r}")
         if not isinstance(self.initial, Mapping):
-            raise ValueError(f"initial must be a state -> number|'measured'|'derivative'|'fit' mapping, got {self.initial!r}")
+            raise ConfigError(f"initial must be a state -> number|'measured'|'derivative'|'fit' mapping, got {self.initial!r}")
         for what in ("offsets", "delays"):
             names = getattr(self, what)
             if isinstance(names, str) or not all(isinstance(n, str) for n in names):
-                raise ValueError(f"{what} must be a list of channel names, got {names!r}")
+                raise ConfigError(f"{what} must be a list of channel names, got {names!r}")
             object.__setattr__(self, what, tuple(names))
         if not isinstance(self.hold, Mapping) or any(str(v).lower() not in HOLDS for v in self.hold.values()):
-            raise ValueError(
+            raise ConfigError(
                 f"hold must be an input -> linear|zoh mapping, got {dict(self.hold) if isinstance(self.hold, Mapping) else self.hold!r}"
             )
         object.__setattr__(self, "hold", {str(k): "zoh" for k, v in self.hold.items() if str(v).lower() == "zoh"})
         if self.measure is not None:
             if isinstance(self.measure, str) or not all(isinstance(n, str) for n in self.measure):
-                raise ValueError(f"measure must be a list of state names, got {self.measure!r}")
+                raise ConfigError(f"measure must be a list of state names, got {self.measure!r}")
             object.__setattr__(self, "measure", tuple(self.measure))
         object.__setattr__(self, "loss", get_loss(self.loss))
         object.__setattr__(self, "initial", {str(k): initial_spec(v, str(k)) for k, v in dict(self.initial).items()})
@@ -100,20 +101,20 @@ class Observation:
         model = self.observed(model)
         for state, spec in self.initial.items():
             if state not in model.states:
-                raise ValueError(f"initial: unknown state {state!r}; model {model.name} has states {', '.join(model.states)}")
+                raise ConfigError(f"initial: unknown state {state!r}; model {model.name} has states {', '.join(model.states)}")
             if spec == "derivative" and state not in model.derivative_of:
-                raise ValueError(f"initial: {state}=derivative needs a state that is the derivative of another (Model.derivative_of); "
+                raise ConfigError(f"initial: {state}=derivative needs a state that is the derivative of another (Model.derivative_of); "
                                  f"model {model.name} has {dict(model.derivative_of) or 'none'}")  # fmt: skip
         bad = [c for c in self.offsets if c not in model.outputs]
         if bad:
-            raise ValueError(f"offset: {', '.join(bad)} is not a measured channel of model {model.name} ({', '.join(model.outputs)})")
+            raise ConfigError(f"offset: {', '.join(bad)} is not a measured channel of model {model.name} ({', '.join(model.outputs)})")
         held_inputs(model, self.hold)  # the hold's names, checked where make_problem checks them
         bad = [c for c in self.delays if c not in model.inputs]
         if bad:
-            raise ValueError(f"delay: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
+            raise ConfigError(f"delay: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
         for what, names in (("offset", self.offsets), ("delay", self.delays)):
             if len(set(names)) != len(names):
-                raise ValueError(f"{what}: a channel is named twice in {', '.join(names)}")
+                raise ConfigError(f"{what}: a channel is named twice in {', '.join(names)}")
         return self
 
     def spec_of(self, state: str, model: Model, recording: Recording) -> "float | str":
@@ -233,13 +234,13 @@ def initial_spec(spec, state: str = "state") -> "float | str":
         try:
             spec = float(text)
         except ValueError:
-            raise ValueError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
+            raise ConfigError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
     try:
         value = float(spec)
     except (TypeError, ValueError):
-        raise ValueError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
+        raise ConfigError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
     if not np.isfinite(value):
-        raise ValueError(f"initial: {state} must be finite, got {spec!r}")
+        raise ConfigError(f"initial: {state} must be finite, got {spec!r}")
     return value
 
 
@@ -247,7 +248,7 @@ def initial_value(state: str, spec, model: Model, recording: Recording) -> float
     """The number a non-fitted spec gives for `recording`."""
     if spec == "measured":
         if state not in recording.channels:
-            raise ValueError(f"{recording._where()}initial: {state}=measured but the recording has no channel {state}")
+            raise ConfigError(f"{recording._where()}initial: {state}=measured but the recording has no channel {state}")
         return float(recording[state][0])
     if spec == "derivative":
         return derivative_at_start(recording, model.derivative_of[state], state)
@@ -262,7 +263,7 @@ def derivative_at_start(recording: Recording, source: str, state: str = "") -> f
     first `START_SAMPLES` samples (a Savitzky-Golay derivative at the edge; its noise is about
     sigma / (h K^1.5), and a filter's edge transient does not enter)."""
     if source not in recording.channels:
-        raise ValueError(f"{recording._where()}initial: {state}=derivative needs channel {source}, which the recording lacks")
+        raise ConfigError(f"{recording._where()}initial: {state}=derivative needs channel {source}, which the recording lacks")
     k = min(len(recording), START_SAMPLES)
     t = np.asarray(recording.t[:k], float) - float(recording.t[0])
     y = np.asarray(recording[source][:k], float)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import Finding
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model, get_model
 from ..models.bounds import Bounds
@@ -53,7 +54,7 @@ def load_result(
     if integrator is None:
         integrator = get_integrator(integrator_name(s, (*INTEGRATORS, "discrete")), nd)
     elif not isinstance(integrator, Integrator):
-        raise ValueError(f"integrator must be a dcjax.Integrator, got {integrator!r}")
+        raise ConfigError(f"integrator must be a dcjax.Integrator, got {integrator!r}")
     b = s.sub("bounds")
     assert b is not None
     lower, upper = b.numbers("lower", len(names), null=-np.inf), b.numbers("upper", len(names), null=np.inf)

@@ -13,6 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..compiling import filter_jit
+from ..errors import ConfigError
 from ..io.files import strict_json, write_text
 from ..io.recording import Recording
 from ..models import Model, get_model, model_spec
@@ -156,7 +157,7 @@ class FitResult:
         (default: the fitted ones, each with its own limit); `loss` instead of the fit's."""
         recs = self.recordings if recordings is None else recordings
         if not recs:
-            raise ValueError("no recording: the result was loaded without its data; pass a recording")
+            raise ConfigError("no recording: the result was loaded without its data; pass a recording")
         if self.settings.get("i_limit") is not None:  # a 0.1 result file: the limit was a setting
             recs = [r.replace(limit=float(self.settings["i_limit"])) for r in recs]
         obs, fitted = self.observation, self._fitted(recordings)
@@ -201,7 +202,7 @@ class FitResult:
         u.approximation = self.observation.loss.approximation
         if profile is not None:
             if profile not in self.names:
-                raise ValueError(f"unknown parameter {profile!r}; the fit's parameters are {', '.join(self.names)}")
+                raise ConfigError(f"unknown parameter {profile!r}; the fit's parameters are {', '.join(self.names)}")
             lo, hi = u.ci95[profile]
             k = self.names.index(profile)
             b = space.bounds

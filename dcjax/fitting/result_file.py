@@ -13,15 +13,13 @@ import math
 from collections.abc import Mapping
 from pathlib import Path
 
+from ..errors import ResultFileError
+
 FORMAT = "dcjax result"
 VERSION = 2  # 2: strict JSON (null for a non-finite number), data paths relative to the result's folder, "files"
 MAX_BYTES = 256 << 20  # a result.json larger than this is refused before it is parsed
 MAX_SUBSTEPS = 1 << 14  # settings.nd at most (an edited 1e9 would simulate for days)
 MAX_RUNS = 100_000
-
-
-class ResultFileError(ValueError):
-    """A result file that cannot be read as one: a one-line message naming the file and the field."""
 
 
 def _short(v) -> str:

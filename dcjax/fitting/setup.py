@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model, get_model
 from ..models.base import DiscreteModel
@@ -39,20 +40,20 @@ class Search:
 
     def __post_init__(self):
         if not isinstance(self.strategy, Strategy):
-            raise ValueError(f"method must be a strategy name or a dcjax Strategy, got {self.strategy!r}")
+            raise ConfigError(f"method must be a strategy name or a dcjax Strategy, got {self.strategy!r}")
         for name in ("runs", "budget"):
             check_positive_int(name, getattr(self, name))
         check_positive_int("pop_size", self.strategy.pop_size)
         if self.strategy.generations is not None:
             check_positive_int("generations", self.strategy.generations)
         if self.budget < self.strategy.pop_size:
-            raise ValueError(f"budget ({self.budget}) must be at least one population ({self.strategy.pop_size})")
+            raise ConfigError(f"budget ({self.budget}) must be at least one population ({self.strategy.pop_size})")
         if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool):
-            raise ValueError(f"seed must be an integer, got {self.seed!r}")
+            raise ConfigError(f"seed must be an integer, got {self.seed!r}")
         if self.memory is not None and not isinstance(self.memory, MemoryAssistance):
-            raise ValueError(f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {self.memory!r}")
+            raise ConfigError(f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {self.memory!r}")
         if not isinstance(self.polish, (bool, np.bool_)):
-            raise ValueError(f"polish must be True or False, got {self.polish!r}")
+            raise ConfigError(f"polish must be True or False, got {self.polish!r}")
 
     @property
     def generations(self) -> int | None:
@@ -86,11 +87,11 @@ def channel_weights(recordings: list[Recording], model: Model) -> tuple[float, .
     if all(g is None for g in given):
         return None
     if any(g != given[0] for g in given):
-        raise ValueError("the recordings of a joint fit must carry the same channel weights")
+        raise ConfigError("the recordings of a joint fit must carry the same channel weights")
     w = dict(given[0])  # pyright: ignore[reportArgumentType]
     bad = [c for c in w if c not in model.outputs]
     if bad:
-        raise ValueError(f"weights: unknown channel(s) {bad}; model {model.name} compares {', '.join(model.outputs)}")
+        raise ConfigError(f"weights: unknown channel(s) {bad}; model {model.name} compares {', '.join(model.outputs)}")
     return tuple(float(w.get(c, 1.0)) for c in model.outputs)
 
 
@@ -106,7 +107,7 @@ def joint_weights(recordings: list[Recording], pooled: bool = False) -> list[flo
         return [1.0 / len(recordings)] * len(recordings)
     out = [1.0 if w is None else float(w) for w in jw]
     if any(not w >= 0 for w in out) or sum(out) <= 0:
-        raise ValueError("joint weights must be non-negative and not all zero")
+        raise ConfigError("joint weights must be non-negative and not all zero")
     return out
 
 
@@ -152,7 +153,7 @@ class Setup:
         """The memory precisions of the free parameters in the unit cube."""
         p = np.asarray(self.physical_precision())
         if not np.all(p >= 0) or np.any(np.isnan(p)):
-            raise ValueError(f"precision needs non-negative numbers, got {p!r}")
+            raise ConfigError(f"precision needs non-negative numbers, got {p!r}")
         return self.space.free_of(p) / np.asarray(self.space.upper - self.space.lower)
 
     def with_integrator(self, integrator: Integrator) -> "Setup":
@@ -189,7 +190,7 @@ class Plan:
         own, extras = resolve_parameters(params, recordings, model)
         local = [n for n, p in own.items() if p.local and not p.vary]
         if local and len(recordings) > 1:
-            raise ValueError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
+            raise ConfigError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
         integrator = self.integrator.integrator if isinstance(self.integrator, AutoSubsteps) else self.integrator
         layout, vec = search_vector(model, recordings, own, extras, observation)
         fixed = vec.fixed
@@ -224,20 +225,20 @@ def plan(
     if observation is None:
         observation = Observation()
     if not isinstance(observation, Observation):
-        raise ValueError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
+        raise ConfigError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
     resolved = get_model(model)
     m = observation.check(resolved).observed(resolved)
     search = Search(make_strategy(method) if not isinstance(method, Strategy) else method, memory, runs, budget, seed, polish)
     if polish and not observation.loss.least_squares:
-        raise ValueError(
+        raise ConfigError(
             f"polish: Levenberg-Marquardt needs a least-squares loss (sse or huber); the {observation.loss.spec} loss has none"
         )
     if isinstance(m, DiscreteModel):
         if isinstance(integrator, AutoSubsteps):
-            raise ValueError(f"model {m.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
+            raise ConfigError(f"model {m.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
         return Plan(m, integrator_for(m, integrator), search, observation)
     if integrator is not None and not isinstance(integrator, (Integrator, AutoSubsteps)):
-        raise ValueError(
+        raise ConfigError(
             f"integrator must be dcjax.Euler(...), dcjax.RK4(...), a dcjax.Integrator of your own or dcjax.AutoSubsteps(...), got {integrator!r}"
         )
     return Plan(m, integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator, search, observation)

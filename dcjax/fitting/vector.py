@@ -19,6 +19,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..io.units import SI_UNITS
 from ..models import Model
@@ -83,7 +84,7 @@ def default_extra(name: str, model: Model, recordings: list[Recording], observat
         top = max(float(np.max(np.abs(np.gradient(np.asarray(r[src], float), r.t)))) for r in recordings)
         top = max(top, abs(max(derivative_at_start(r, src, state) for r in recordings)), 1e-12)
         return Parameter(name, value=None, min=-1.5 * top, max=1.5 * top, unit=unit)
-    raise ValueError(f"initial: {state}=fit needs a range: state {state} is not measured; give it, e.g. --bound {name}=LOWER:UPPER")
+    raise ConfigError(f"initial: {state}=fit needs a range: state {state} is not measured; give it, e.g. --bound {name}=LOWER:UPPER")
 
 
 def search_vector(model: Model, recordings: list[Recording], params: Parameters, extras: Parameters, observation: Observation):
@@ -95,7 +96,7 @@ def search_vector(model: Model, recordings: list[Recording], params: Parameters,
     bad = [n for n in extras if n not in known]
     if bad:
         hint = ", ".join(sorted(known)) or "none (no --initial ...=fit, --offset or --delay)"
-        raise ValueError(f"unknown parameter(s) {', '.join(bad)} for model {model.name}; beyond its own the fit has {hint}")
+        raise ConfigError(f"unknown parameter(s) {', '.join(bad)} for model {model.name}; beyond its own the fit has {hint}")
     entries: list[Parameter] = []
     cols: dict[str, list[int]] = {}  # base name -> column per recording
 
@@ -196,14 +197,14 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> tup
     if isinstance(params, str):
         return model.parameters(params), Parameters()
     if not isinstance(params, Parameters):
-        raise ValueError(
+        raise ConfigError(
             f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
         )
     own, extras = split_parameters(params, model)  # copies
     own.check(model.names, model.name)
     for n, p in extras.items():
         if p.vary and p.min > p.max:
-            raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
+            raise ConfigError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
     return own, extras
 
 
@@ -221,7 +222,7 @@ def sidecar_preset(recordings: list[Recording], model: Model) -> str:
     known = {p for cls in MODELS.values() for p in cls().preset_names} | set(model.preset_names) | {"auto"}
     bad = sorted(str(n) for n in named if str(n).lower() not in known)
     if bad:
-        raise ValueError(f"the sidecar's bounds {', '.join(map(repr, bad))} is no preset: model {model.name} has "
+        raise ConfigError(f"the sidecar's bounds {', '.join(map(repr, bad))} is no preset: model {model.name} has "
                          f"{', '.join(model.preset_names) or 'none'}, or auto")  # fmt: skip
     if len(named) > 1 or str(next(iter(named))).lower() not in (*model.preset_names, "auto"):
         warnings.warn(f"the sidecars' bounds {', '.join(sorted(map(str, named)))} {'differ' if len(named) > 1 else 'is no preset of model ' + model.name}: "
@@ -261,14 +262,14 @@ def start_rows(x0, model: Model, space: Space) -> np.ndarray | None:
     if rows is None:
         full = np.atleast_2d(np.asarray(x0, dtype=np.float64))
         if full.shape[-1] != len(names):
-            raise ValueError(f"x0 must be name -> value mappings or vectors of {len(names)} values {names}")
+            raise ConfigError(f"x0 must be name -> value mappings or vectors of {len(names)} values {names}")
         rows = [dict(zip(names, r)) for r in full]
     lo, hi = np.asarray(space.lower), np.asarray(space.upper)
     out = np.full((len(rows), space.dim), np.nan)
     for i, row in enumerate(rows):
         bad = [n for n in row if n not in names and n not in model.names]
         if bad:
-            raise ValueError(f"unknown start value {', '.join(map(repr, bad))}; the fit's parameters are {', '.join(names)}")
+            raise ConfigError(f"unknown start value {', '.join(map(repr, bad))}; the fit's parameters are {', '.join(names)}")
         row = {
             **{c: v for n, v in row.items() if n not in names for c in names if base_name(c) == n},
             **{n: v for n, v in row.items() if n in names},
@@ -279,9 +280,9 @@ def start_rows(x0, model: Model, space: Space) -> np.ndarray | None:
             try:
                 v = float(v)
             except (TypeError, ValueError):
-                raise ValueError(f"start value of {n} must be a number, got {v!r}") from None
+                raise ConfigError(f"start value of {n} must be a number, got {v!r}") from None
             j = space.free_names.index(n)
             if not lo[j] <= v <= hi[j]:
-                raise ValueError(f"start value {n}={v:g} lies outside its bounds [{lo[j]:g}, {hi[j]:g}]")
+                raise ConfigError(f"start value {n}={v:g} lies outside its bounds [{lo[j]:g}, {hi[j]:g}]")
             out[i, j] = (v - lo[j]) / (hi[j] - lo[j])
     return out

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..models.dc import NAMES as PARAM_NAMES
 from .numpy_simulator import simulate_numpy
 from .recording import Recording, load_csv
@@ -35,7 +36,7 @@ def true_params(name: str) -> dict[str, float]:
     """Table 3 parameters of SD1–SD4."""
     key = name.upper()
     if key not in SD_PARAMS:
-        raise ValueError(f"unknown data set {name!r}; the simulated ones are {sorted(SD_PARAMS)}")
+        raise ConfigError(f"unknown data set {name!r}; the simulated ones are {sorted(SD_PARAMS)}")
     return dict(SD_PARAMS[key])
 
 
@@ -63,7 +64,7 @@ def load(name: str) -> Recording:
     the package, or, where it is missing, regenerated (the two are byte-identical, see the tests)."""
     key = name.upper()
     if key not in EMBEDDED:
-        raise ValueError(f"unknown data set {name!r}; embedded ones are {', '.join(EMBEDDED)}")
+        raise ConfigError(f"unknown data set {name!r}; embedded ones are {', '.join(EMBEDDED)}")
     path = DATA_DIR / f"{key}.csv"
     if path.is_file():
         rec = load_csv(path)

@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..models.dc import NAMES as PARAM_NAMES
 from .recording import Recording
 
@@ -84,16 +85,16 @@ class DriveSettings:
     def __post_init__(self):
         missing = [n for n in PARAM_NAMES if n not in self.params]
         if missing:
-            raise ValueError(f"params missing {missing}")
+            raise ConfigError(f"params missing {missing}")
         if self.params["La"] <= 0 or self.params["J"] <= 0:
-            raise ValueError("La and J must be positive")
+            raise ConfigError("La and J must be positive")
         ratio = self.dt_sample / self.dt_control
         if abs(ratio - round(ratio)) > 1e-9 or ratio < 1:
-            raise ValueError("dt_sample must be a whole number of control periods")
+            raise ConfigError("dt_sample must be a whole number of control periods")
         if self.i_limit <= 0 or self.u_max <= 0 or self.n_samples < 3:
-            raise ValueError("i_limit and u_max must be positive, n_samples >= 3")
+            raise ConfigError("i_limit and u_max must be positive, n_samples >= 3")
         if self.first_sample_delay is not None and not 0 <= self.first_sample_delay < self.dt_sample:
-            raise ValueError("first_sample_delay must lie in [0, dt_sample)")
+            raise ConfigError("first_sample_delay must lie in [0, dt_sample)")
 
 
 def _plant(s: DriveSettings):
@@ -211,7 +212,7 @@ def md_settings(name: str) -> DriveSettings:
     }
     key = name.upper()
     if key not in table7:
-        raise ValueError(f"unknown MD set {name!r}; choose from {sorted(table7)}")
+        raise ConfigError(f"unknown MD set {name!r}; choose from {sorted(table7)}")
     c = dict(table7[key])
     load_b = c.pop("load_b")
     params = dict(MOTOR, Tlb=MOTOR["Tlb"] + load_b)

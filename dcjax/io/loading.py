@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError, DataError
 from ..models import Model, get_model
 from .files import file_sha256
 from .recording import Recording, read_sidecar, trim_switch_on
@@ -27,11 +28,11 @@ def read_mat(path: Path) -> dict[str, np.ndarray]:
     try:
         from scipy.io import loadmat
     except ImportError:
-        raise ValueError("reading .mat files needs scipy (pip install scipy)") from None
+        raise DataError("reading .mat files needs scipy (pip install scipy)") from None
     try:
         m = loadmat(path)
     except Exception as e:  # scipy raises several types for a bad file
-        raise ValueError(f"{path}: not a readable MATLAB file ({e})") from None
+        raise DataError(f"{path}: not a readable MATLAB file ({e})") from None
     out = {}
     for k, v in m.items():
         if k.startswith("__"):
@@ -89,7 +90,7 @@ class Reading:
         for k, v in given.items():
             check, what = RECORD_FIELDS[k]
             if not check(v):
-                raise ValueError(f"load.{k} of a result's data must be {what}, got {v!r}"[:200])
+                raise ConfigError(f"load.{k} of a result's data must be {what}, got {v!r}"[:200])
         return cls(**given)
 
 
@@ -132,11 +133,11 @@ def _window(text_or_pair) -> tuple[float, float] | None:
     if isinstance(text_or_pair, str):
         parts = text_or_pair.split(":")
         if len(parts) != 2:
-            raise ValueError(f"window must be T0:T1 (seconds), got {text_or_pair!r}")
+            raise ConfigError(f"window must be T0:T1 (seconds), got {text_or_pair!r}")
         try:
             return (float(parts[0]) if parts[0] else -np.inf, float(parts[1]) if parts[1] else np.inf)
         except ValueError:
-            raise ValueError(f"window must be T0:T1 (seconds), got {text_or_pair!r}") from None
+            raise ConfigError(f"window must be T0:T1 (seconds), got {text_or_pair!r}") from None
     a, b = text_or_pair
     return float(a), float(b)
 
@@ -175,11 +176,11 @@ def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool
     if w is not None:
         keep = (rec.t >= w[0]) & (rec.t <= w[1])
         if keep.sum() < 3:
-            raise ValueError(f"window {w[0]}:{w[1]} keeps {int(keep.sum())} samples (need at least 3; t runs {rec.t[0]}..{rec.t[-1]} s)")
+            raise DataError(f"window {w[0]}:{w[1]} keeps {int(keep.sum())} samples (need at least 3; t runs {rec.t[0]}..{rec.t[-1]} s)")
         rec = rec.select(keep)
     if every is not None:
         if not isinstance(every, (int, np.integer)) or isinstance(every, bool) or every < 1:
-            raise ValueError(f"every must be a positive integer, got {every!r}")
+            raise ConfigError(f"every must be a positive integer, got {every!r}")
         aliased = aliasing(rec, int(every))
         if aliased:
             c, share, nyquist = aliased
@@ -190,7 +191,7 @@ def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool
     if trim:
         m = get_model(model)
         if not m.inputs:
-            raise ValueError(f"trim: model {m.name} has no input to find the switch-on in")
+            raise ConfigError(f"trim: model {m.name} has no input to find the switch-on in")
         rec = trim_switch_on(rec, threshold=0.02 if trim is True else float(trim), channel=m.inputs[0])
     return rec
 
@@ -250,14 +251,14 @@ def load_recording(
             None,
             False,
         ):
-            raise ValueError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
+            raise ConfigError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
         as_dict = lambda m: None if m is None else dict(m)
         columns, units, scale, dt, rate = as_dict(reading.columns), as_dict(reading.units), as_dict(reading.scale), reading.dt, reading.rate
         delimiter, decimal, constants, drop_nan = reading.delimiter, reading.decimal, as_dict(reading.constants), reading.drop_nan
     m = get_model(model)
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"no such file: {path}")
+        raise DataError(f"no such file: {path}")
     suffix = path.suffix.lower()
     if suffix == ".npz":
         table = Table(read_npz(path), {}, np.array([]))
@@ -266,7 +267,7 @@ def load_recording(
     elif suffix in TEXT_SUFFIXES or suffix == "":
         table = read_table(path, delimiter, decimal)
     else:
-        raise ValueError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
+        raise DataError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
     meta = read_sidecar(path)
     consts = {**(meta.get("constants") or {}), **(constants or {})}
     needed = tuple(c for c in m.channels if c not in consts or c not in m.inputs)
@@ -307,8 +308,6 @@ LOAD_KEYS = (*(f.name for f in dataclasses.fields(Reading)), "window", "every", 
 
 def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> None:
     """A one-line `DataError` naming the file's line of the first row with a NaN/inf in a channel read."""
-    from .recording import DataError
-
     bad = {c: np.flatnonzero(~np.isfinite(v)) for c, v in chans.items()}
     bad = {c: k for c, k in bad.items() if k.size}
     if not bad:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import DataError
 from ..models import get_model
 from .units import select_channels
 
@@ -18,19 +19,10 @@ COLUMNS = ("t", "u_a", "i_a", "omega")
 DC_CHANNELS = COLUMNS[1:]
 
 
-class DataError(ValueError):
-    """A recording's data break a check (`check`: its name, e.g. "nan", "time", "dead"); a one-line
-    error that names the check."""
-
-    def __init__(self, check: str, message: str):
-        super().__init__(f"{check}: {message}")
-        self.check = check
-
-
 def _constants(given, where: str = "") -> dict[str, float]:
     """A name -> finite number mapping (the inputs constant in a recording), checked."""
     if not isinstance(given, dict):
-        raise ValueError(f"{where}constants must be a name -> number mapping, got {given!r}")
+        raise DataError(f"{where}constants must be a name -> number mapping, got {given!r}")
     out = {}
     for k, v in given.items():
         try:
@@ -38,7 +30,7 @@ def _constants(given, where: str = "") -> dict[str, float]:
         except (TypeError, ValueError):
             f = float("nan")
         if not np.isfinite(f):
-            raise ValueError(f"{where}constant {k} must be a finite number, got {v!r}")
+            raise DataError(f"{where}constant {k} must be a finite number, got {v!r}")
         out[str(k)] = f
     return out
 
@@ -65,30 +57,30 @@ class Recording:
             if v is None:  # a channel not recorded
                 continue
             if key in chans:
-                raise ValueError(f"{self._where()}channel {key!r} is given twice (by keyword and in channels)")
+                raise DataError(f"{self._where()}channel {key!r} is given twice (by keyword and in channels)")
             if np.ndim(v) == 0:  # a misspelt option, not a channel
-                raise ValueError(
+                raise DataError(
                     f"{self._where()}{key}={v!r}: a keyword of Recording is a channel (a 1-D array); the options are "
                     "channels=, limit=, name=, metadata= and constants="
                 )
             chans[key] = v
         if not chans:
-            raise ValueError(f"{self._where()}a recording needs at least one channel besides t")
+            raise DataError(f"{self._where()}a recording needs at least one channel besides t")
         arrays = {}
         for col, v in {"t": t, **chans}.items():
             try:
                 a = np.array(v, dtype=np.float64)
             except (TypeError, ValueError) as e:
-                raise ValueError(f"{self._where()}column {col!r} is not numeric: {e}") from None
+                raise DataError(f"{self._where()}column {col!r} is not numeric: {e}") from None
             if a.ndim != 1:
-                raise ValueError(f"{self._where()}column {col!r} must be one-dimensional, got shape {a.shape}")
+                raise DataError(f"{self._where()}column {col!r} must be one-dimensional, got shape {a.shape}")
             arrays[col] = a
         lengths = {c: a.shape[0] for c, a in arrays.items()}
         if len(set(lengths.values())) != 1:
-            raise ValueError(f"{self._where()}columns have different lengths: {lengths}")
+            raise DataError(f"{self._where()}columns have different lengths: {lengths}")
         n = lengths["t"]
         if n < 3:
-            raise ValueError(f"{self._where()}need at least 3 samples, got {n}")
+            raise DataError(f"{self._where()}need at least 3 samples, got {n}")
         for col, a in arrays.items():
             bad = np.flatnonzero(~np.isfinite(a))
             if bad.size:
@@ -106,7 +98,7 @@ class Recording:
             except (TypeError, ValueError):
                 limit = float("nan")
             if not np.isfinite(limit) or limit <= 0:
-                raise ValueError(
+                raise DataError(
                     f"{self._where()}limit must be a positive number (the clamp on the limited state, e.g. the supply's current limit), got {given!r}"
                 )
         for a in (tt, *arrays.values()):
@@ -119,7 +111,7 @@ class Recording:
             meta["constants"] = _constants(constants if constants is not None else meta["constants"], self._where())
             clash = [c for c in meta["constants"] if c in arrays]
             if clash:
-                raise ValueError(f"{self._where()}{', '.join(clash)} given both as a column and as a constant; give it once")
+                raise DataError(f"{self._where()}{', '.join(clash)} given both as a column and as a constant; give it once")
         object.__setattr__(self, "metadata", meta)
 
     @property
@@ -143,7 +135,7 @@ class Recording:
         if key not in self.channels:
             if key in self.constants:
                 return np.full(self.t.shape, self.constants[key])
-            raise ValueError(f"{self._where()}no channel {key!r}; it has {', '.join(self.channels)}")
+            raise DataError(f"{self._where()}no channel {key!r}; it has {', '.join(self.channels)}")
         return self.channels[key]
 
     def __setattr__(self, key, value):
@@ -203,26 +195,26 @@ def load_csv(path: str | Path, name: str | None = None) -> Recording:
     paper's drive) and its JSON sidecar, if present. Other layouts: `dcjax.load_recording`."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"no such file: {path}")
+        raise DataError(f"no such file: {path}")
     lines = path.read_text().splitlines()
     if not lines:
-        raise ValueError(f"{path}: file is empty")
+        raise DataError(f"{path}: file is empty")
     header = [h.strip() for h in lines[0].split(",")]
     if header[0] != "t" or len(header) < 2 or len(set(header)) != len(header) or not all(header):
-        raise ValueError(f"{path}: header must be t,<channel>,... (e.g. {','.join(COLUMNS)}), got {lines[0]!r}")
+        raise DataError(f"{path}: header must be t,<channel>,... (e.g. {','.join(COLUMNS)}), got {lines[0]!r}")
     rows = []
     for lineno, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue
         fields = line.split(",")
         if len(fields) != len(header):
-            raise ValueError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)} (ragged row)")
+            raise DataError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)} (ragged row)")
         try:
             rows.append([float(f) for f in fields])
         except ValueError:
-            raise ValueError(f"{path}:{lineno}: non-numeric value in {line!r}") from None
+            raise DataError(f"{path}:{lineno}: non-numeric value in {line!r}") from None
     if not rows:
-        raise ValueError(f"{path}: no data rows")
+        raise DataError(f"{path}: no data rows")
     data = np.asarray(rows, dtype=np.float64)
     meta = read_sidecar(path)
     return Recording(
@@ -241,13 +233,13 @@ def read_sidecar(path: Path) -> dict:
     try:
         meta = json.loads(sidecar.read_text())
     except json.JSONDecodeError as e:
-        raise ValueError(f"{sidecar}: invalid JSON: {e}") from None
+        raise DataError(f"{sidecar}: invalid JSON: {e}") from None
     if not isinstance(meta, dict):
-        raise ValueError(f"{sidecar}: must hold a JSON object")
+        raise DataError(f"{sidecar}: must hold a JSON object")
     for key, (ok, what) in SIDECAR_FIELDS.items():
         if key in meta and not ok(meta[key]):
             shown = repr(meta[key]) if len(repr(meta[key])) <= 60 else repr(meta[key])[:57] + "..."
-            raise ValueError(f"{sidecar}: {key} must be {what}, got {shown}")
+            raise DataError(f"{sidecar}: {key} must be {what}, got {shown}")
     return meta
 
 
@@ -292,12 +284,12 @@ def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: b
     `threshold * max|u|`; it and the samples after it are kept, and the simulation starts from it
     (its measured states are the initial state). With `rezero_time`, time restarts at 0 there."""
     if not recording.has(channel):
-        raise ValueError(
+        raise DataError(
             f"{recording._where()}trim: no input {channel!r} to find the switch-on in (channel=; it has {', '.join(recording.channels)})"
         )
     u = np.abs(recording[channel])
     if not u.max() > 0:
-        raise ValueError(f"{recording._where()}input {channel} is zero everywhere: no switch-on to find")
+        raise DataError(f"{recording._where()}input {channel} is zero everywhere: no switch-on to find")
     start = int(np.flatnonzero(u > threshold * u.max())[0])
     out = recording.select(slice(start, None))
     return out.replace(t=out.t - out.t[0]) if rezero_time else out
@@ -316,7 +308,7 @@ def recording_from_table(
     elif getattr(table, "dtype", None) is not None and table.dtype.names:
         cols = {n: np.asarray(table[n]) for n in table.dtype.names}
     else:
-        raise ValueError("table must be a DataFrame, a dict of arrays or a structured array")
+        raise DataError("table must be a DataFrame, a dict of arrays or a structured array")
     chans = select_channels(cols, m.channels, columns, units, m.quantities, scale=scale, dt=dt, rate=rate)
     t = chans.pop("t")
     return Recording(t=t, channels=chans, limit=i_limit, name=name)

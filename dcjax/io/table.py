@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError, DataError
+
 DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None}
 MISSING = ("", "nan", "na", "n/a", "null", "none")  # a field read as NaN (as pandas' read_csv does)
 COMMENTS = ("#", "%")
@@ -80,7 +82,7 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
         last = split_fields(lines[-1], d)
         if len(last) >= 2 and row_values(last, decimal) is not None and not _all_missing(last):
             return d
-    raise ValueError("cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or "
+    raise DataError("cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or "
                      "whitespace; give delimiter=/--delimiter")  # fmt: skip
 
 
@@ -133,27 +135,27 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
     """The data of a delimited text file (module docstring), or a one-line error naming the
     line that breaks it."""
     if decimal not in (".", ","):
-        raise ValueError(f"decimal must be '.' or ',', got {decimal!r}")
+        raise ConfigError(f"decimal must be '.' or ',', got {decimal!r}")
     tail = _tail_lines(path)
     if not tail:
-        raise ValueError(f"{path}: no data rows (the file is empty or holds comments only)")
+        raise DataError(f"{path}: no data rows (the file is empty or holds comments only)")
     if delimiter is None:
         try:
             delim = detect_delimiter(tail, decimal)
         except ValueError as e:
             text = [x for x in tail if x.strip()]
             if len(text) <= 2 and path.stat().st_size <= SNIFF_BYTES:
-                raise ValueError(f"{path}: no data rows: the file holds {len(text)} line(s) of text and no row of numbers") from None
-            raise ValueError(f"{path}: {e}") from None
+                raise DataError(f"{path}: no data rows: the file holds {len(text)} line(s) of text and no row of numbers") from None
+            raise DataError(f"{path}: {e}") from None
     elif delimiter in DELIMITERS:
         delim = DELIMITERS[delimiter]
     else:
-        raise ValueError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
+        raise ConfigError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
     if delim == "," and decimal == ",":
-        raise ValueError("delimiter and decimal separator cannot both be ','")
+        raise ConfigError("delimiter and decimal separator cannot both be ','")
     width = len(split_fields(tail[-1], delim))
     if width < 2:
-        raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+        raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
     above: deque[tuple[int, list[str] | None, bool]] = deque(
         maxlen=64
     )  # the last lines above the data: (line, text fields of its width, commented)
@@ -178,14 +180,14 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
                     above.append((lineno, _text_of_width(fields, width, decimal), False))
                 continue
             if row is None:
-                raise ValueError(_bad_row(path, lineno, fields, width, decimal, lines[0]))
+                raise DataError(_bad_row(path, lineno, fields, width, decimal, lines[0]))
             values.append(row)
             lines.append(lineno)
     if not values:
-        raise ValueError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+        raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
     header, units, units_line = _header(above, width)
     if len(set(header)) != len(header):
-        raise ValueError(f"{path}: repeated column names in the header {header}")
+        raise DataError(f"{path}: repeated column names in the header {header}")
     data = np.array(values, dtype=np.float64)
     units = {h: u for h, u in zip(header, units)} if units else {h: u for h in header if (u := header_unit(h)) is not None}
     return Table({h: data[:, k] for k, h in enumerate(header)}, units, np.array(lines), units_line)

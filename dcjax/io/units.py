@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from ..errors import ConfigError, DataError
+
 # Factor to SI, by quantity. Names are matched case-sensitively first, then case-insensitively.
 UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "min": 60.0},
@@ -25,7 +27,7 @@ SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s
             "position": "m", "speed": "m/s", "force": "N"}  # fmt: skip
 
 
-class ColumnError(ValueError):
+class ColumnError(DataError):
     """A channel's column is not in the file (a one-line error naming it and the file's columns)."""
 
 
@@ -46,7 +48,7 @@ def unit_factor(channel: str, unit: str, quantity: str | None) -> float:
             if name.lower() == unit.lower():
                 return f
     accepted = ", ".join(u for t in tables.values() for u in t)
-    raise ValueError(f"unknown unit {unit!r} for {channel}; accepted: {accepted}")
+    raise ConfigError(f"unknown unit {unit!r} for {channel}; accepted: {accepted}")
 
 
 def parse_mapping(text: str | None, what: str) -> dict[str, str]:
@@ -57,7 +59,7 @@ def parse_mapping(text: str | None, what: str) -> dict[str, str]:
     for item in text.split(","):
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
-            raise ValueError(f"{what} must be NAME=VALUE pairs separated by commas, got {item!r}")
+            raise ConfigError(f"{what} must be NAME=VALUE pairs separated by commas, got {item!r}")
         out[key.strip()] = value.strip()
     return out
 
@@ -65,7 +67,7 @@ def parse_mapping(text: str | None, what: str) -> dict[str, str]:
 def sample_times(n: int, dt: float | None = None, rate: float | None = None) -> np.ndarray:
     """t = k dt (k = 0 .. n-1) for a file without a time column; `rate` (Hz) gives dt = 1/rate."""
     if dt is not None and rate is not None:
-        raise ValueError("give either dt (s) or rate (Hz) for a file without a time column, not both")
+        raise ConfigError("give either dt (s) or rate (Hz) for a file without a time column, not both")
     step = dt if dt is not None else None if rate is None else 1.0 / _positive(rate, "rate")
     step = _positive(step, "dt")
     return np.arange(n) * step
@@ -77,7 +79,7 @@ def _positive(v, what: str) -> float:
     except (TypeError, ValueError):
         f = float("nan")
     if not (np.isfinite(f) and f > 0):
-        raise ValueError(f"{what} must be a positive number, got {v!r}")
+        raise ConfigError(f"{what} must be a positive number, got {v!r}")
     return f
 
 
@@ -86,13 +88,13 @@ def scale_factors(scale: dict | None, known: tuple[str, ...], where: str = "") -
     out = {}
     for c, f in (scale or {}).items():
         if c not in known:
-            raise ValueError(f"{where}scale: unknown channel {c!r}; this model's channels are {', '.join(known)}")
+            raise ConfigError(f"{where}scale: unknown channel {c!r}; this model's channels are {', '.join(known)}")
         try:
             out[c] = float(f)
         except (TypeError, ValueError):
             out[c] = float("nan")
         if not (np.isfinite(out[c]) and out[c] != 0):
-            raise ValueError(f"{where}scale of {c} must be a finite non-zero number, got {f!r}")
+            raise ConfigError(f"{where}scale of {c} must be a finite non-zero number, got {f!r}")
     return out
 
 
@@ -121,14 +123,14 @@ def select_channels(
     factors = scale_factors(scale, known, where)
     if dt is not None or rate is not None:
         if "t" in columns or "t" in factors:
-            raise ValueError(f"{where}dt/rate replace the time column: do not map or scale t as well")
+            raise ConfigError(f"{where}dt/rate replace the time column: do not map or scale t as well")
         n = len(next(iter(table.values()))) if table else 0
         table = {**table, "\0t": sample_times(n, dt, rate)}
         columns["t"] = "\0t"
         units.pop("t", None)
     bad = [c for c in (*columns, *units) if c not in known]
     if bad:
-        raise ValueError(
+        raise ConfigError(
             f"{where}unknown channel(s) {', '.join(map(repr, sorted(set(bad))))}; this model's channels are {', '.join(known)}"
         )
     out = {}
@@ -139,7 +141,7 @@ def select_channels(
         elif isinstance(src, int) or (isinstance(src, str) and src.isdigit()):
             k = int(src)
             if not 0 <= k < len(headers):
-                raise ValueError(f"{where}column index {k} for {c} is out of range (the file has {len(headers)} columns)")
+                raise ConfigError(f"{where}column index {k} for {c} is out of range (the file has {len(headers)} columns)")
             col = table[headers[k]]
         elif c in optional and c not in needed and c not in columns:
             continue

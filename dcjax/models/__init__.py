@@ -8,6 +8,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
+from ..errors import ModelError
 from .base import DiscreteModel, Model
 from .dc import DC, DCCoulomb
 from .pmsm import PMSM
@@ -27,23 +28,23 @@ def get_model(model: "str | Model | type[Model] | None" = None) -> Model:
     if isinstance(model, type) and issubclass(model, Model):
         return model()
     if not isinstance(model, str):
-        raise ValueError(f"model must be a name {sorted(MODELS)}, 'package.module:attr' or a dcjax Model, got {model!r}")
+        raise ModelError(f"model must be a name {sorted(MODELS)}, 'package.module:attr' or a dcjax Model, got {model!r}")
     if model.lower() in MODELS:
         return MODELS[model.lower()]()
     if ":" not in model:
-        raise ValueError(f"unknown model {model!r}; built-in models are {sorted(MODELS)}, or give 'package.module:attr'")
+        raise ModelError(f"unknown model {model!r}; built-in models are {sorted(MODELS)}, or give 'package.module:attr'")
     mod_name, _, attr = model.rpartition(":")
     try:
         module = _import_file(mod_name) if mod_name.endswith(".py") else importlib.import_module(mod_name)
         obj = getattr(module, attr)
     except (ImportError, AttributeError, SyntaxError) as e:
-        raise ValueError(f"cannot import model {model!r}: {e}") from None
+        raise ModelError(f"cannot import model {model!r}: {e}") from None
     if callable(obj) and not isinstance(obj, Model) and not (isinstance(obj, type) and issubclass(obj, Model)):
         obj = obj()
     if isinstance(obj, type) and issubclass(obj, Model):
         obj = obj()
     if not isinstance(obj, Model):
-        raise ValueError(f"{model!r} is not a dcjax Model (got {type(obj).__name__})")
+        raise ModelError(f"{model!r} is not a dcjax Model (got {type(obj).__name__})")
     return obj
 
 

@@ -45,6 +45,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..errors import ModelError
 from .parameters import Parameter, Parameters
 
 
@@ -126,7 +127,7 @@ class Model(eqx.Module):
             why = (
                 f"{', '.join(map(repr, bad))} is not a state" if bad else "name each state once" if channels else "name at least one state"
             )
-            raise ValueError(f"measure: {why}; model {self.name} has states {', '.join(self.states)}")
+            raise ModelError(f"measure: {why}; model {self.name} has states {', '.join(self.states)}")
         cls = measuring_class(type(self).measuring_base or type(self), channels)
         if type(self) is cls:
             return self
@@ -141,7 +142,7 @@ class Model(eqx.Module):
     def check_names(self, names, what: str = "parameter") -> None:
         bad = self.unknown(names)
         if bad:
-            raise ValueError(
+            raise ModelError(
                 f"unknown {what} {', '.join(map(repr, bad))} for model {self.name}; its parameters are {', '.join(self.names)}"
             )
 
@@ -151,13 +152,13 @@ class Model(eqx.Module):
         if isinstance(params, Mapping):
             missing = [n for n in self.names if n not in params]
             if missing:
-                raise ValueError(f"missing parameters {missing} for model {self.name}; need all of {self.names}")
+                raise ModelError(f"missing parameters {missing} for model {self.name}; need all of {self.names}")
             return jnp.stack([jnp.asarray(params[n], dtype=jnp.float64) for n in self.names], axis=-1)
         if all(hasattr(params, n) for n in self.names) and not hasattr(params, "shape"):
             return jnp.stack([jnp.asarray(getattr(params, n), dtype=jnp.float64) for n in self.names], axis=-1)
         x = jnp.asarray(params, dtype=jnp.float64)
         if x.ndim == 0 or x.shape[-1] != self.n_params:
-            raise ValueError(f"parameter vector must have {self.n_params} entries {self.names}, got shape {x.shape}")
+            raise ModelError(f"parameter vector must have {self.n_params} entries {self.names}, got shape {x.shape}")
         return x
 
     def as_dict(self, x: Float[Array, "*batch P"]) -> dict[str, Array]:
@@ -192,13 +193,13 @@ class Model(eqx.Module):
                 [Parameter(n, unit=self.units.get(n, ""), precision=prec.get(n), positive=n in self.positive) for n in self.names]
             )
         if not presets:
-            raise ValueError(f"model {self.name} has no parameter presets; give bounds explicitly")
+            raise ModelError(f"model {self.name} has no parameter presets; give bounds explicitly")
         key = next(iter(presets)) if preset is None else str(preset).lower()
         if key not in presets:
-            raise ValueError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(presets)}")
+            raise ModelError(f"unknown bounds preset {preset!r} for model {self.name}; choose one of {sorted(presets)}")
         params = presets[key]
         if params.names != tuple(self.names):
-            raise ValueError(
+            raise ModelError(
                 f"preset {key!r} of model {self.name} must name {', '.join(self.names)} in order, got {', '.join(params.names)}"
             )
         for n, p in params.items():  # a preset may leave the units to the model's `units`
@@ -208,7 +209,7 @@ class Model(eqx.Module):
     def bound_arrays(self, preset: str | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) of a preset (default: the model's first)."""
         if not self.preset_names:
-            raise ValueError(f"model {self.name} has no bounds presets; give bounds explicitly")
+            raise ModelError(f"model {self.name} has no bounds presets; give bounds explicitly")
         params = self.parameters(preset)
         return params.lower, params.upper
 
@@ -222,7 +223,7 @@ class Model(eqx.Module):
     def precision_array(self) -> np.ndarray:
         prec = self.memory_precision
         if prec is None:
-            raise ValueError(f"model {self.name} defines no memory precision; pass precision= explicitly")
+            raise ModelError(f"model {self.name} defines no memory precision; pass precision= explicitly")
         return np.array([prec[n] for n in self.names], float)
 
     @property
@@ -266,4 +267,4 @@ class DiscreteModel(Model):
         raise NotImplementedError
 
     def vector_field(self, c, u, y):
-        raise ValueError(f"model {self.name} is a discrete-time model: it defines update(c, u, y, dt), not a vector field")
+        raise ModelError(f"model {self.name} is a discrete-time model: it defines update(c, u, y, dt), not a vector field")

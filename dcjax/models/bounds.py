@@ -8,6 +8,7 @@ import numpy as np
 import numpy.typing as npt
 from jaxtyping import Array, ArrayLike, Float
 
+from ..errors import ConfigError
 from . import Model
 
 
@@ -25,12 +26,12 @@ class Bounds(eqx.Module):
         hi = np.atleast_1d(np.asarray(upper, dtype=np.float64))
         if lo.ndim != 1 or lo.shape != hi.shape or (names is not None and lo.shape != (len(names),)):
             want = f"{len(names)} values each {tuple(names)}" if names is not None else "equal-length vectors"
-            raise ValueError(f"bounds need {want}, got shapes {lo.shape} and {hi.shape}")
+            raise ConfigError(f"bounds need {want}, got shapes {lo.shape} and {hi.shape}")
         if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-            raise ValueError("bounds must be finite numbers")
+            raise ConfigError("bounds must be finite numbers")
         bad = [k if names is None else names[k] for k in np.flatnonzero(lo > hi)]
         if bad:
-            raise ValueError(f"lower bound above upper bound for {bad}")
+            raise ConfigError(f"lower bound above upper bound for {bad}")
         # NumPy leaves: building bounds (the presets at import) starts no JAX backend.
         self.lower = lo
         self.upper = hi
@@ -65,7 +66,7 @@ def resolve_bounds(model: Model, bounds=None, overrides: Mapping[str, tuple[floa
         bounds = None
     if bounds is None or isinstance(bounds, str):
         if bounds is None and not model.preset_names:
-            raise ValueError(f"model {model.name} has no bounds presets; give bounds for {', '.join(model.names)}")
+            raise ConfigError(f"model {model.name} has no bounds presets; give bounds for {', '.join(model.names)}")
         b = Bounds(*model.bound_arrays(bounds), model.names)
     elif isinstance(bounds, Bounds):
         b = bounds
@@ -73,10 +74,10 @@ def resolve_bounds(model: Model, bounds=None, overrides: Mapping[str, tuple[floa
         try:
             lo, hi = bounds
         except (TypeError, ValueError):
-            raise ValueError("bounds must be a preset name, a Bounds, a (lower, upper) pair or a name -> (lower, upper) mapping") from None
+            raise ConfigError("bounds must be a preset name, a Bounds, a (lower, upper) pair or a name -> (lower, upper) mapping") from None
         b = Bounds(lo, hi, model.names)
     if b.size != model.n_params:
-        raise ValueError(f"bounds have {b.size} entries but model {model.name} has {model.n_params} parameters {model.names}")
+        raise ConfigError(f"bounds have {b.size} entries but model {model.name} has {model.n_params} parameters {model.names}")
     if overrides:
         model.check_names(overrides)
         lo, hi = np.array(b.lower), np.array(b.upper)
@@ -84,7 +85,7 @@ def resolve_bounds(model: Model, bounds=None, overrides: Mapping[str, tuple[floa
             try:
                 a, c = (float(v) for v in pair)
             except (TypeError, ValueError):
-                raise ValueError(f"bound of {n} must be a (lower, upper) pair of numbers, got {pair!r}") from None
+                raise ConfigError(f"bound of {n} must be a (lower, upper) pair of numbers, got {pair!r}") from None
             k = model.names.index(n)
             lo[k], hi[k] = a, c
         b = Bounds(lo, hi, model.names)

@@ -14,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..errors import ModelError
 from .base import Model
 from .parameters import Parameter, Parameters
 
@@ -59,7 +60,7 @@ def load_torque_precision(torque: float, speed: float, ra: float, la: float, cm:
     Ra, La, cm and J get the resolution the user gives (Table 29: 1e-3, 1e-3, 1e-3, 1e-4 with
     1 mNm at 209 1/s)."""
     if not (torque > 0 and speed > 0 and min(ra, la, cm, j) > 0):
-        raise ValueError("precisions, torque and speed must be positive")
+        raise ModelError("precisions, torque and speed must be positive")
     return np.array([ra, la, cm, j, torque, torque / speed, torque / speed**2])
 
 

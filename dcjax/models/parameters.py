@@ -19,6 +19,7 @@ from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 
+from ..errors import ConfigError
 from .priors import Prior, prior_from_spec
 
 _UNSET = object()
@@ -64,28 +65,28 @@ class Parameter:
         for field, v in (("vary", vary), ("local", local), ("positive", positive)):
             if v is not _UNSET:
                 if not isinstance(v, (bool, np.bool_)):
-                    raise ValueError(f"{self.name}.{field} must be True or False, got {v!r}")
+                    raise ConfigError(f"{self.name}.{field} must be True or False, got {v!r}")
                 setattr(self, field, bool(v))
         if scale is not _UNSET:
             if scale not in ("linear", "log"):
-                raise ValueError(f"{self.name}.scale must be 'linear' or 'log', got {scale!r}")
+                raise ConfigError(f"{self.name}.scale must be 'linear' or 'log', got {scale!r}")
             self.scale = scale
             self.positive = self.positive or scale == "log"
         if prior is not _UNSET:
             try:
                 self.prior = None if prior is None else prior_from_spec(prior)  # pyright: ignore[reportArgumentType]
             except ValueError as e:
-                raise ValueError(f"{self.name}: {e}") from None
+                raise ConfigError(f"{self.name}: {e}") from None
         if self.positive and self.min == -math.inf:
             self.min = 0.0  # a positive parameter's range starts at 0 unless given
         if self.positive and self.min < 0:
-            raise ValueError(f"{self.name} is positive: its min must be >= 0, got {self.min:g}")
+            raise ConfigError(f"{self.name} is positive: its min must be >= 0, got {self.min:g}")
         return self
 
     # -- the value in arithmetic (lmfit's Parameter does the same) ------------------------------
     def __float__(self) -> float:
         if self.value is None:
-            raise ValueError(f"parameter {self.name} has no value")
+            raise ConfigError(f"parameter {self.name} has no value")
         return float(self.value)
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
@@ -182,9 +183,9 @@ def _number(v, what: str, allow_inf: bool = False) -> float:
     try:
         f = float(v)
     except (TypeError, ValueError):
-        raise ValueError(f"{what} must be a number, got {v!r}") from None
+        raise ConfigError(f"{what} must be a number, got {v!r}") from None
     if math.isnan(f) or (math.isinf(f) and not allow_inf):
-        raise ValueError(f"{what} must be a finite number, got {v!r}")
+        raise ConfigError(f"{what} must be a finite number, got {v!r}")
     return f
 
 
@@ -238,7 +239,7 @@ class Parameters(Mapping[str, Parameter]):
         for n, p in self._items.items():
             if not p.vary:
                 if p.value is None:
-                    raise ValueError(f"parameter {n} is fixed (vary=False) but has no value")
+                    raise ConfigError(f"parameter {n} is fixed (vary=False) but has no value")
                 out[n] = float(p.value)
         return out
 
@@ -255,12 +256,12 @@ class Parameters(Mapping[str, Parameter]):
     def check(self, names: tuple[str, ...], model_name: str = "the model") -> None:
         """The parameters must be exactly `names`, with finite ranges min <= max for the searched ones."""
         if tuple(self._items) != tuple(names):
-            raise ValueError(f"params must name {model_name}'s parameters {', '.join(names)} in order, got {', '.join(self._items)}")
+            raise ConfigError(f"params must name {model_name}'s parameters {', '.join(names)} in order, got {', '.join(self._items)}")
         for n, p in self._items.items():
             if p.vary and not (math.isfinite(p.min) and math.isfinite(p.max)):
-                raise ValueError(f"parameter {n} needs a finite min and max to be searched, got [{p.min}, {p.max}]")
+                raise ConfigError(f"parameter {n} needs a finite min and max to be searched, got [{p.min}, {p.max}]")
             if p.vary and p.min > p.max:
-                raise ValueError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
+                raise ConfigError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
 
     def to_dict(self) -> dict[str, dict]:
         def clean(v):

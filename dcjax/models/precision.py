@@ -4,6 +4,7 @@ unit cube the strategies search (`dcjax.strategies.memory` knows only the latter
 import numpy as np
 from jaxtyping import ArrayLike
 
+from ..errors import ConfigError
 from . import DC, Model
 from .bounds import Bounds
 from .space import Space, make_space
@@ -20,11 +21,11 @@ def physical_precision(precision: ArrayLike | dict | None, model: Model) -> np.n
         base = model.precision_array() if known else np.zeros(model.n_params)
         missing = [n for n in model.names if n not in precision and not known]
         if missing:
-            raise ValueError(f"precision needs a value for {missing} (model {model.name} has no default)")
+            raise ConfigError(f"precision needs a value for {missing} (model {model.name} has no default)")
         return np.array([float(precision.get(n, base[k])) for k, n in enumerate(model.names)])
     p = np.asarray(precision, dtype=np.float64)
     if p.shape != (model.n_params,):
-        raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
+        raise ConfigError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
     return p
 
 
@@ -36,7 +37,7 @@ def unit_precision(precision: ArrayLike | dict | None, space: "Space | Bounds", 
         space = make_space(model, space)
     p = physical_precision(precision, model)
     if not np.all(p >= 0) or np.any(np.isnan(p)):
-        raise ValueError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
+        raise ConfigError(f"precision needs {model.n_params} non-negative numbers {model.names}, got {p!r}")
     p = space.free_of(p)
     width = np.asarray(space.upper - space.lower)
     return p / width

@@ -22,6 +22,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array
 
+from ..errors import ConfigError
+
 
 class Prior(eqx.Module):
     """Base class: `log_density(x)`, the log of an (unnormalised) density of the physical value x."""
@@ -43,7 +45,7 @@ class Prior(eqx.Module):
 
 def _positive(what: str, v) -> None:
     if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-        raise ValueError(f"{what} must be a finite number > 0, got {v!r}")
+        raise ConfigError(f"{what} must be a finite number > 0, got {v!r}")
 
 
 class NormalPrior(Prior):
@@ -55,7 +57,7 @@ class NormalPrior(Prior):
 
     def __check_init__(self):
         if not (isinstance(self.mean, (int, float)) and math.isfinite(self.mean)):
-            raise ValueError(f"normal prior: mean must be a finite number, got {self.mean!r}")
+            raise ConfigError(f"normal prior: mean must be a finite number, got {self.mean!r}")
         _positive("normal prior: sd", self.sd)
 
     def log_density(self, x) -> Array:
@@ -114,15 +116,15 @@ def prior_from_spec(text: "str | Prior") -> Prior:
     accepted = "normal(MEAN,SD), lognormal(MEDIAN,SIGMA) or halfnormal(SD)"
     m = _SPEC.match(str(text).lower())
     if m is None or m.group(1) not in PRIORS:
-        raise ValueError(f"prior must be {accepted}, got {text!r}")
+        raise ConfigError(f"prior must be {accepted}, got {text!r}")
     cls = PRIORS[m.group(1)]
     try:
         args = [float(a) for a in m.group(2).split(",")]
     except ValueError:
-        raise ValueError(f"prior {text!r}: the arguments must be numbers ({accepted})") from None
+        raise ConfigError(f"prior {text!r}: the arguments must be numbers ({accepted})") from None
     fields = [f.name for f in dataclasses.fields(cls)]
     if len(args) != len(fields):
-        raise ValueError(f"prior {text!r}: {cls.kind} takes {len(fields)} number(s) ({', '.join(fields)})")
+        raise ConfigError(f"prior {text!r}: {cls.kind} takes {len(fields)} number(s) ({', '.join(fields)})")
     return cls(*args)
 
 

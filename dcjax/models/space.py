@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..errors import ConfigError
 from . import Model
 from .bounds import Bounds
 
@@ -113,19 +114,19 @@ def vector_space(
         try:
             v = float(v)
         except (TypeError, ValueError):
-            raise ValueError(f"fixed value of {n} must be a number, got {v!r}") from None
+            raise ConfigError(f"fixed value of {n} must be a number, got {v!r}") from None
         if not np.isfinite(v):
-            raise ValueError(f"fixed value of {n} must be finite, got {v!r}")
+            raise ConfigError(f"fixed value of {n} must be finite, got {v!r}")
         k = names.index(n)
         lo[k] = hi[k] = values[k] = v
     for k in np.flatnonzero(lo == hi):
         values[k] = lo[k]
     free = tuple(int(k) for k in np.flatnonzero(lo < hi))
     if not free:
-        raise ValueError(f"every parameter of {what} is fixed; nothing to identify")
+        raise ConfigError(f"every parameter of {what} is fixed; nothing to identify")
     logs = tuple(k for k in free if names[k] in log)
     bad = [f"{names[k]} (min {lo[k]:g})" for k in logs if not lo[k] > 0]
     if bad:
-        raise ValueError(f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
+        raise ConfigError(f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
                          "give one with bounds=/--bound NAME=LO:HI")  # fmt: skip
     return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names), logs)

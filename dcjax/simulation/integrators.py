@@ -27,6 +27,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Array
 
+from ..errors import ConfigError
+
 State = tuple[Array, ...]
 Field = Callable[[State, State], State]
 
@@ -44,7 +46,7 @@ class Integrator(eqx.Module):
 
     def __check_init__(self):
         if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool) or self.substeps < 1:
-            raise ValueError(f"substeps must be a positive integer, got {self.substeps!r}")
+            raise ConfigError(f"substeps must be a positive integer, got {self.substeps!r}")
 
     @abc.abstractmethod
     def step(self, field: Field, y: State, u0: State, u1: State, h) -> State:
@@ -91,7 +93,7 @@ class Diffrax(Integrator):
     def __check_init__(self):
         super().__check_init__()
         if not (self.rtol > 0 and self.atol > 0):
-            raise ValueError(f"Diffrax rtol and atol must be positive, got rtol={self.rtol!r}, atol={self.atol!r}")
+            raise ConfigError(f"Diffrax rtol and atol must be positive, got rtol={self.rtol!r}, atol={self.atol!r}")
 
     def step(self, field, y, u0, u1, h):
         import diffrax
@@ -128,10 +130,10 @@ class SampleMap(Integrator):
 
     def __check_init__(self):
         if self.substeps != 1:
-            raise ValueError("a discrete-time model's update has no sub-steps")
+            raise ConfigError("a discrete-time model's update has no sub-steps")
 
     def step(self, field, y, u0, u1, h):
-        raise ValueError("SampleMap belongs to a dcjax.DiscreteModel; an ODE model needs Euler, RK4 or an Integrator of its own")
+        raise ConfigError("SampleMap belongs to a dcjax.DiscreteModel; an ODE model needs Euler, RK4 or an Integrator of its own")
 
 
 # The defaults `integrator_for` gives, built once (an equinox module's construction costs ~0.07 ms:
@@ -147,12 +149,12 @@ def integrator_for(model, integrator: "Integrator | None") -> Integrator:
 
     if isinstance(model, DiscreteModel):
         if integrator is not None and not isinstance(integrator, SampleMap):
-            raise ValueError(
+            raise ConfigError(
                 f"model {model.name} is a discrete-time model (update(c, u, y, dt) per sample): it takes no integrator, got {integrator!r}"
             )
         return integrator if integrator is not None else SAMPLE_MAP
     if isinstance(integrator, SampleMap):
-        raise ValueError(f"model {model.name} is not a discrete-time model: it needs an integrator (Euler, RK4, ...), not SampleMap")
+        raise ConfigError(f"model {model.name} is not a discrete-time model: it needs an integrator (Euler, RK4, ...), not SampleMap")
     return DEFAULT_RK4 if integrator is None else integrator
 
 
@@ -167,11 +169,11 @@ class AutoSubsteps(eqx.Module):
 
     def __check_init__(self):
         if not isinstance(self.integrator, Integrator):
-            raise ValueError(f"AutoSubsteps.integrator must be a dcjax.Integrator, got {self.integrator!r}")
+            raise ConfigError(f"AutoSubsteps.integrator must be a dcjax.Integrator, got {self.integrator!r}")
         if not self.tol > 0:
-            raise ValueError(f"AutoSubsteps.tol must be positive, got {self.tol!r}")
+            raise ConfigError(f"AutoSubsteps.tol must be positive, got {self.tol!r}")
         if not isinstance(self.max_substeps, int) or self.max_substeps < 1:
-            raise ValueError(f"AutoSubsteps.max_substeps must be a positive integer, got {self.max_substeps!r}")
+            raise ConfigError(f"AutoSubsteps.max_substeps must be a positive integer, got {self.max_substeps!r}")
 
 
 # The built-in integrators by the names the CLI, the sidecars and result.json spell them.
@@ -195,7 +197,7 @@ def get_integrator(spec: "str | Integrator | type[Integrator]", substeps: int = 
     if isinstance(spec, type) and issubclass(spec, Integrator):
         return spec(substeps=substeps)
     if not isinstance(spec, str):
-        raise ValueError(f"integrator must be a dcjax.Integrator or one of {sorted(INTEGRATORS)}, got {spec!r}")
+        raise ConfigError(f"integrator must be a dcjax.Integrator or one of {sorted(INTEGRATORS)}, got {spec!r}")
     if spec.lower() in INTEGRATORS:
         return INTEGRATORS[spec.lower()](substeps=substeps)
     if spec.lower() == "discrete":
@@ -206,5 +208,5 @@ def get_integrator(spec: "str | Integrator | type[Integrator]", substeps: int = 
     except (ImportError, AttributeError):
         cls = None
     if not (isinstance(cls, type) and issubclass(cls, Integrator)):
-        raise ValueError(f"unknown integrator {spec!r}; choose one of {sorted(INTEGRATORS)} or give 'module:Class' of a dcjax.Integrator")
+        raise ConfigError(f"unknown integrator {spec!r}; choose one of {sorted(INTEGRATORS)} or give 'module:Class' of a dcjax.Integrator")
     return cls(substeps=substeps)

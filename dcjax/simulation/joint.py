@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..errors import ConfigError
 from .adjustments import Adjustments
 from .objectives import objective, residuals
 from .problem import Problem
@@ -232,7 +233,7 @@ class JointProblem(eqx.Module):
 
     def __check_init__(self):
         if len(self.problems) != len(self.weights) or len(self.problems) != self.layout.recordings:
-            raise ValueError("a JointProblem needs one weight and one layout row per recording")
+            raise ConfigError("a JointProblem needs one weight and one layout row per recording")
 
     @property
     def names(self) -> tuple[str, ...]:

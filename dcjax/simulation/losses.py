@@ -25,6 +25,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..errors import ConfigError
+
 NORMALIZATIONS = ("peak", "none")
 
 
@@ -38,7 +40,7 @@ class Loss(eqx.Module):
 
     def __check_init__(self):
         if self.normalize not in NORMALIZATIONS:
-            raise ValueError(f"normalize must be one of {', '.join(NORMALIZATIONS)}, got {self.normalize!r}")
+            raise ConfigError(f"normalize must be one of {', '.join(NORMALIZATIONS)}, got {self.normalize!r}")
 
     @abstractmethod
     def rho(self, a): ...
@@ -157,7 +159,7 @@ class Huber(Loss):
 
     def __check_init__(self):
         if not (isinstance(self.delta, (int, float)) and 0 < self.delta < math.inf):
-            raise ValueError(f"huber's delta must be a positive number, got {self.delta!r}")
+            raise ConfigError(f"huber's delta must be a positive number, got {self.delta!r}")
 
     def rho(self, a):
         b = jnp.abs(a)
@@ -224,19 +226,19 @@ def get_loss(spec: "str | Loss | None", normalize: str | None = None) -> Loss:
             return dataclasses.replace(spec, normalize=normalize)
         return spec
     if not isinstance(spec, str):
-        raise ValueError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss, got {spec!r}")
+        raise ConfigError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss, got {spec!r}")
     kind, sep, arg = spec.strip().lower().partition(":")
     norm = "peak" if normalize is None else normalize
     if normalize is not None and normalize not in NORMALIZATIONS:
-        raise ValueError(f"normalize must be one of {', '.join(NORMALIZATIONS)}, got {normalize!r}")
+        raise ConfigError(f"normalize must be one of {', '.join(NORMALIZATIONS)}, got {normalize!r}")
     if kind == "huber":
         try:
             delta = float(arg)
         except ValueError:
-            raise ValueError(f"loss huber needs its delta, e.g. huber:0.05 (in the normalised units), got {spec!r}") from None
+            raise ConfigError(f"loss huber needs its delta, e.g. huber:0.05 (in the normalised units), got {spec!r}") from None
         if not (delta > 0 and delta < float("inf")):
-            raise ValueError(f"loss huber's delta must be a positive number, got {arg!r}")
+            raise ConfigError(f"loss huber's delta must be a positive number, got {arg!r}")
         return Huber(normalize=norm, delta=delta)
     if kind not in LOSSES or sep:
-        raise ValueError(f"loss must be sse, l1 or huber:DELTA, got {spec!r}")
+        raise ConfigError(f"loss must be sse, l1 or huber:DELTA, got {spec!r}")
     return LOSSES[kind](normalize=norm)

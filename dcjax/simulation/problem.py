@@ -5,7 +5,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import Array, Float
 
-from ..io.recording import DataError, Recording
+from ..errors import ConfigError, DataError
+from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from .integrators import RK4, Integrator, integrator_for
 from .losses import SSE, Loss, get_loss
@@ -78,7 +79,7 @@ def knots_per_interval(t: np.ndarray) -> int:
 
 def check_positive_int(name: str, v) -> None:
     if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
-        raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        raise ConfigError(f"{name} must be a positive integer, got {v!r}")
 
 
 def make_problem(
@@ -113,25 +114,18 @@ def make_problem(
     """
     model = get_model(model)
     if integrator is not None and not isinstance(integrator, Integrator):
-        raise ValueError(f"integrator must be a dcjax.Integrator (dcjax.Euler(substeps=N), dcjax.RK4(substeps=N), ...), got {integrator!r}")
+        raise ConfigError(
+            f"integrator must be a dcjax.Integrator (dcjax.Euler(substeps=N), dcjax.RK4(substeps=N), ...), got {integrator!r}"
+        )
     integrator = integrator_for(model, integrator)
     loss = get_loss(loss)
     check_positive_int("unroll", unroll)
     outs = model.outputs
-    if weights is None:
-        weights = (1.0,) * len(outs)
-    try:
-        w = np.array([float(x) for x in weights])
-    except (TypeError, ValueError):
-        raise ValueError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}") from None
-    if w.shape != (len(outs),):
-        raise ValueError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}")
-    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() == 0:
-        raise ValueError(f"weights must be non-negative, finite and not all zero, got {weights!r}")
+    w = channel_weights(weights, outs)
     missing = [c for c in model.channels if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
     if missing:
         consts = f" and constants {', '.join(recording.constants)}" if recording.constants else ""
-        raise ValueError(
+        raise ConfigError(
             f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has "
             f"{', '.join(recording.channels)}{consts} (the model's inputs {', '.join(model.inputs) or 'none'} may also be "
             'constants: --const NAME=V or the sidecar\'s "constants")'
@@ -140,17 +134,17 @@ def make_problem(
     u = np.stack([recording[c] for c in model.inputs], axis=1) if model.inputs else np.zeros((len(t), 0))
     if voltage is not None:
         if not model.inputs:
-            raise ValueError(f"model {model.name} has no input to set a constant voltage on")
+            raise ConfigError(f"model {model.name} has no input to set a constant voltage on")
         u = u.copy()
         u[:, 0] = float(voltage)
     if not np.all(np.isfinite(u)):
-        raise ValueError("voltage must be finite")
+        raise ConfigError("voltage must be finite")
     held = held_inputs(model, hold)
     u_end = u[1:].copy()
     u_end[:, list(held)] = u[:-1, list(held)]
     limit = recording.limit
     if limit is not None and not limit > 0:
-        raise ValueError(f"current limit must be positive, got {limit}")
+        raise ConfigError(f"current limit must be positive, got {limit}")
     y = np.stack([recording[c] for c in outs], axis=1)
     peak = np.max(np.abs(y), axis=0)
     for c, m in zip(outs, peak):
@@ -159,7 +153,7 @@ def make_problem(
     init = dict(initial or {})
     bad = [s for s in init if s not in model.states]
     if bad:
-        raise ValueError(f"unknown state(s) {bad} for model {model.name}; its states are {model.states}")
+        raise ConfigError(f"unknown state(s) {bad} for model {model.name}; its states are {model.states}")
     y0 = [float(init[s]) if s in init else float(recording[s][0]) if s in recording.channels else 0.0 for s in model.states]
     n = t.shape[0]
 
@@ -183,6 +177,21 @@ def make_problem(
     )
 
 
+def channel_weights(weights, outs: tuple[str, ...]) -> np.ndarray:
+    """eq. 27's weights, one per compared channel `outs` (None: all 1, eq. 24), checked."""
+    if weights is None:
+        return np.ones(len(outs))
+    try:
+        w = np.array([float(x) for x in weights])
+    except (TypeError, ValueError):
+        raise ConfigError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}") from None
+    if w.shape != (len(outs),):
+        raise ConfigError(f"weights must be {len(outs)} numbers (one per channel {outs}), got {weights!r}")
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() == 0:
+        raise ConfigError(f"weights must be non-negative, finite and not all zero, got {weights!r}")
+    return w
+
+
 HOLDS = ("linear", "zoh")
 
 
@@ -191,8 +200,8 @@ def held_inputs(model: Model, hold) -> tuple[int, ...]:
     hold = dict(hold or {})
     bad = [k for k in hold if k not in model.inputs]
     if bad:
-        raise ValueError(f"hold: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
+        raise ConfigError(f"hold: {', '.join(bad)} is not an input of model {model.name} ({', '.join(model.inputs) or 'none'})")
     for k, v in hold.items():
         if v not in HOLDS:
-            raise ValueError(f"hold: {k} must be linear or zoh, got {v!r}")
+            raise ConfigError(f"hold: {k} must be linear or zoh, got {v!r}")
     return tuple(j for j, c in enumerate(model.inputs) if hold.get(c) == "zoh")

@@ -1,6 +1,7 @@
 """Search strategies (paper Section 2.2) behind one interface: `init`/`step` over a `State`,
 run whole by `run` as a `lax.while_loop`, `vmap`-able over independent runs."""
 
+from ..errors import ConfigError
 from .abc import ABC
 from .base import RunOutput, State, Strategy, run
 from .de import DEBest1Bin, DERand1Exp
@@ -41,7 +42,7 @@ def make_strategy(method: str | Strategy, pop_size: int | None = None, **options
     if isinstance(method, Strategy):
         return method
     if not isinstance(method, str):
-        raise ValueError(f"method must be a name or a Strategy, got {method!r}")
+        raise ConfigError(f"method must be a name or a Strategy, got {method!r}")
     key = method.lower()
     if key in METHODS:
         return METHODS[key](pop_size=PAPER_POP if pop_size is None else pop_size, **options)
@@ -51,13 +52,13 @@ def make_strategy(method: str | Strategy, pop_size: int | None = None, **options
     try:
         from .evosax_adapter import Evosax
     except ImportError:
-        raise ValueError(
+        raise ConfigError(
             f"unknown method {method!r}; choose one of {list(METHODS)}, or install the evosax extra "
             "(pip install 'dcjax[evosax]') for evosax algorithms"
         ) from None
     if name in evosax_names():
         return Evosax(pop_size=pop_size, name=name, params=options)
-    raise ValueError(f"unknown method {method!r}; choose one of {list(METHODS)} or an evosax algorithm {evosax_names()}")
+    raise ConfigError(f"unknown method {method!r}; choose one of {list(METHODS)} or an evosax algorithm {evosax_names()}")
 
 
 def __getattr__(name):

@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
+from ..errors import ConfigError
 from .compact import compacted
 from .memory import HashRecords, MemoryAssistance, Records, get_memory
 
@@ -104,7 +105,7 @@ def uniform_population(key: PRNGKeyArray, n: int, d: int, init: str = "uniform")
         k1, k2 = jax.random.split(key)
         strata = jax.vmap(lambda k: jax.random.permutation(k, n))(jax.random.split(k1, d)).T
         return (strata + jax.random.uniform(k2, (n, d))) / n
-    raise ValueError(f"init must be 'uniform' or 'lhs', got {init!r}")
+    raise ConfigError(f"init must be 'uniform' or 'lhs', got {init!r}")
 
 
 def apply_bounds(u: Float[Array, "P D"], z: Array, rule: str, parent: Array | None = None) -> Array:
@@ -122,7 +123,7 @@ def apply_bounds(u: Float[Array, "P D"], z: Array, rule: str, parent: Array | No
     if rule == "midpoint":
         assert parent is not None
         return jnp.where(z < 0.0, 0.5 * parent, jnp.where(z > 1.0, 0.5 * (parent + 1.0), z))
-    raise ValueError(f"bounds rule must be 'redraw', 'clip' or 'midpoint', got {rule!r}")
+    raise ConfigError(f"bounds rule must be 'redraw', 'clip' or 'midpoint', got {rule!r}")
 
 
 BOUND_RULES = ("redraw", "clip", "midpoint")
@@ -269,7 +270,7 @@ def run_start(
     memory = get_memory(memory)
     if memory is not None:
         if precision is None:
-            raise ValueError("memory needs a precision vector (unit-cube units)")
+            raise ConfigError("memory needs a precision vector (unit-cube units)")
         evaluated = jnp.arange(state.pop.shape[0]) < state.fes
         cap = capacity if capacity is not None else budget + strategy.pop_size
         state = state.replace(memory=memory.create(precision, state.pop, state.fit, evaluated, cap))

@@ -6,6 +6,7 @@ from typing import ClassVar
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
+from ..errors import ConfigError
 from .base import BOUND_RULES, State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, index_below, initial_state, uniforms
 
 
@@ -42,9 +43,9 @@ class _DE(Strategy):
 
     def __check_init__(self):
         if self.bounds_rule not in BOUND_RULES:
-            raise ValueError(f"bounds_rule must be one of {BOUND_RULES}, got {self.bounds_rule!r}")
+            raise ConfigError(f"bounds_rule must be one of {BOUND_RULES}, got {self.bounds_rule!r}")
         if self.pop_size < 5:
-            raise ValueError("DE needs a population of at least 5")
+            raise ConfigError("DE needs a population of at least 5")
 
     def max_iterations(self, budget: int) -> int:
         return max(0, -(-(budget - self.pop_size) // self.pop_size))

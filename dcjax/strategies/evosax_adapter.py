@@ -14,6 +14,7 @@ import jax.numpy as jnp
 from evosax.core.fitness_shaping import weights_fitness_shaping_fn
 from jaxtyping import Array, Float
 
+from ..errors import ConfigError
 from .base import State, Strategy, evaluate, initial_state
 
 PENALTY = 1e3  # per unit of squared distance outside the cube
@@ -33,7 +34,7 @@ class Evosax(Strategy):
 
     def __check_init__(self):
         if self.name not in ea.algorithms:
-            raise ValueError(f"unknown evosax algorithm {self.name!r}; choose from {evosax_names()}")
+            raise ConfigError(f"unknown evosax algorithm {self.name!r}; choose from {evosax_names()}")
 
     def _algo(self, dim: int):
         cls = ea.algorithms[self.name]

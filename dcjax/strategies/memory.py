@@ -38,6 +38,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
+from ..errors import ConfigError
+
 
 class MemoryAssistance(eqx.Module):
     """Memory assistance (paper Section 4.4): a candidate within the parameters' precisions of a
@@ -70,7 +72,7 @@ class LTMA(MemoryAssistance):
 
     def __check_init__(self):
         if self.order not in ("oldest", "newest"):
-            raise ValueError(f"LTMA order must be 'oldest' or 'newest', got {self.order!r}")
+            raise ConfigError(f"LTMA order must be 'oldest' or 'newest', got {self.order!r}")
 
     @property
     def kind(self) -> str:  # pyright: ignore[reportIncompatibleVariableOverride]
@@ -108,7 +110,7 @@ def get_memory(memory: "str | MemoryAssistance | None") -> MemoryAssistance | No
         return memory
     if isinstance(memory, str) and memory.lower() in MEMORIES:
         return MEMORIES[memory.lower()]
-    raise ValueError(
+    raise ConfigError(
         f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...), dcjax.IndexedLTMA() or one of {sorted(MEMORIES)}, got {memory!r}"
     )
 

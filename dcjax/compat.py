@@ -25,6 +25,7 @@ from .errors import ConfigError
 from .fitting.each import fit_each
 from .fitting.fit import fit
 from .fitting.result import FitResult
+from .fitting.search import Search
 from .fitting.setup import with_weights
 from .fitting.vector import parameters_of, resolve_parameters
 from .io.recording import Recording
@@ -173,10 +174,10 @@ def identify(
     params, starts = legacy_parameters(recs, m, bounds, fixed, x0, precision)
     strategy = _with_generations(make_strategy(method, pop_size=pop_size, **(strategy_options or {})), generations)
     integ = AutoSubsteps(get_integrator(integrator), nd_tol, nd_max) if nd == "auto" else get_integrator(integrator, nd)  # pyright: ignore[reportArgumentType]
+    search = Search(strategy, runs, budget, seed, get_memory(memory), polish)
     if starts is not None:
-        return _fit_with_starts(recs, m, params, starts, strategy, integ, runs, budget, seed, get_memory(memory), polish, progress)
-    return fit(recs, m, params, strategy, integrator=integ, runs=runs, budget=budget, seed=seed, memory=get_memory(memory),
-               polish=polish, progress=progress)  # fmt: skip
+        return _fit_with_starts(recs, m, params, starts, search, integ, progress)
+    return fit(recs, m, params, search, integrator=integ, progress=progress)
 
 
 def _with_generations(strategy, generations):
@@ -187,11 +188,11 @@ def _with_generations(strategy, generations):
     return dataclasses.replace(strategy, generations=int(generations))
 
 
-def _fit_with_starts(recs, m, params, starts, strategy, integ, runs, budget, seed, memory, polish, progress) -> FitResult:
+def _fit_with_starts(recs, m, params, starts, search, integ, progress) -> FitResult:
     from .fitting.engine import fit_setups
     from .fitting.setup import plan
 
-    p = plan(m, strategy, integrator=integ, runs=runs, budget=budget, seed=seed, memory=memory, polish=polish)
+    p = plan(m, search, integrator=integ)
     return fit_setups(p, [p.setup(recs, params, starts=starts)], progress)[0]
 
 
@@ -207,8 +208,10 @@ def identify_each(recordings, bounds=None, x0=None, *, method="de-rand-1-exp", i
     if len(bounds) != len(recs) or len(x0) != len(recs):
         raise ConfigError("bounds and x0 need one entry per recording")
     params = [legacy_parameters([r], m, b, fixed, s, precision)[0] for r, b, s in zip(recs, bounds, x0)]
-    out = fit_each(recs, m, params, _with_generations(make_strategy(method, pop_size=pop_size), generations),
-                   integrator=get_integrator(integrator, nd), runs=runs, budget=budget, seed=seed, memory=get_memory(memory), polish=polish)  # fmt: skip
+    search = Search(
+        _with_generations(make_strategy(method, pop_size=pop_size), generations), runs, budget, seed, get_memory(memory), polish
+    )
+    out = fit_each(recs, m, params, search, integrator=get_integrator(integrator, nd))
     for r in out:
         if not isinstance(r, FitResult):
             raise ConfigError(f"{r.name}: {r.error}")

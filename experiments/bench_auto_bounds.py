@@ -36,7 +36,7 @@ def main():
         row = {}
         for b in (preset, "auto"):
             t0 = time.perf_counter()
-            res = dcjax.fit(rec, params=b, integrator=dcjax.RK4(substeps=nd), runs=args.runs)
+            res = dcjax.fit(rec, params=b, integrator=dcjax.RK4(substeps=nd), search=dcjax.Search(runs=args.runs))
             row[b] = res
             ok = int(np.sum(res.run_of <= 1e-15))
             print(

@@ -35,18 +35,24 @@ def cases() -> dict:
     recs, box, servo_obs = dcjax_case(*logs(476))  # bench_servo_fleet's logs: a search between COMPILE_FES / 3 and COMPILE_FES
     servo = (recs, "servo", box)
     return {
-        "SD1 DE/rand/1/exp, 1 run": lambda: dcjax.fit(sd1, runs=1, budget=140_000, seed=0),
-        "SD1 ABC, 1 run": lambda: dcjax.fit(sd1, method="abc", runs=1, budget=140_000, seed=0),
-        "SD1 GA, 1 run": lambda: dcjax.fit(sd1, method="ga", runs=1, budget=140_000, seed=0),
-        "SD1 TLBO, 1 run": lambda: dcjax.fit(sd1, method="tlbo", runs=1, budget=140_000, seed=0),
-        "SD1 CMA-ES, 4 runs": lambda: dcjax.fit(sd1, method="cma-es", runs=4, budget=28_000, seed=0),
+        "SD1 DE/rand/1/exp, 1 run": lambda: dcjax.fit(sd1, search=dcjax.Search(runs=1, budget=140_000, seed=0)),
+        "SD1 ABC, 1 run": lambda: dcjax.fit(sd1, search=dcjax.Search("abc", runs=1, budget=140_000, seed=0)),
+        "SD1 GA, 1 run": lambda: dcjax.fit(sd1, search=dcjax.Search("ga", runs=1, budget=140_000, seed=0)),
+        "SD1 TLBO, 1 run": lambda: dcjax.fit(sd1, search=dcjax.Search("tlbo", runs=1, budget=140_000, seed=0)),
+        "SD1 CMA-ES, 4 runs": lambda: dcjax.fit(sd1, search=dcjax.Search("cma-es", runs=4, budget=28_000, seed=0)),
         "MD1 table8 RK4 ND 2, 4 runs": lambda: dcjax.fit(
-            md1, params="table8", integrator=dcjax.RK4(substeps=2), runs=4, budget=140_000, seed=0
+            md1, params="table8", integrator=dcjax.RK4(substeps=2), search=dcjax.Search(runs=4, budget=140_000, seed=0)
         ),  # fmt: skip
-        "SD1+SD2 joint, 4 runs": lambda: dcjax.fit([sd1, sd2], params="table4", runs=4, budget=28_000, seed=0),
-        "SD1 LTMA, 4 runs": lambda: dcjax.fit(sd1, params="table4", memory=dcjax.LTMA(), runs=4, budget=28_000, seed=0),
-        "SD1 RK4 ND 8, 1 run": lambda: dcjax.fit(sd1, params="table4", integrator=dcjax.RK4(substeps=8), runs=1, budget=140_000, seed=0),
-        "476 servo logs CMA-ES, 1 run": lambda: dcjax.fit(*servo, "cma-es", observation=servo_obs, runs=1, budget=2_000, seed=0),
+        "SD1+SD2 joint, 4 runs": lambda: dcjax.fit([sd1, sd2], params="table4", search=dcjax.Search(runs=4, budget=28_000, seed=0)),
+        "SD1 LTMA, 4 runs": lambda: dcjax.fit(
+            sd1, params="table4", search=dcjax.Search(runs=4, budget=28_000, seed=0, memory=dcjax.LTMA())
+        ),
+        "SD1 RK4 ND 8, 1 run": lambda: dcjax.fit(
+            sd1, params="table4", integrator=dcjax.RK4(substeps=8), search=dcjax.Search(runs=1, budget=140_000, seed=0)
+        ),
+        "476 servo logs CMA-ES, 1 run": lambda: dcjax.fit(
+            *servo, "cma-es", observation=servo_obs, search=dcjax.Search(runs=1, budget=2_000, seed=0)
+        ),
     }
 
 

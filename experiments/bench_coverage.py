@@ -69,7 +69,12 @@ def one_seed(seed: int, case: str = "sd1", runs: int = 2, budget: int = 40_000) 
     """Does each 90 % interval of seed `seed`'s fit (DE `runs` x `budget` FEs, polished) hold the truth."""
     recs, truth, obs = case_data(case, seed)
     t0 = time.perf_counter()
-    res = dcjax.fit(recs if len(recs) > 1 else recs[0], params="table4", runs=runs, budget=budget, polish=True, seed=seed, observation=obs)
+    res = dcjax.fit(
+        recs if len(recs) > 1 else recs[0],
+        params="table4",
+        observation=obs,
+        search=dcjax.Search(runs=runs, budget=budget, seed=seed, polish=True),
+    )
     u = res.uncertainty().uncertainties
     assert u is not None
     post = res.sample(draws=500, chains=4, warmup=500, seed=seed)

@@ -70,8 +70,8 @@ def _padding(lanes: int) -> dict:
 
     objectives.LANES = lanes
     rec = datasets.load("SD1")
-    one = [fit(rec, params="table4", method="de-rand-1-exp", runs=1, seed=s).timing["run_s"] for s in range(3)]
-    fifty = [fit(rec, params="table4", method="de-rand-1-exp", runs=50, seed=s).timing["run_s"] for s in range(3)]
+    one = [fit(rec, params="table4", search=dcjax.Search("de-rand-1-exp", runs=1, seed=s)).timing["run_s"] for s in range(3)]
+    fifty = [fit(rec, params="table4", search=dcjax.Search("de-rand-1-exp", runs=50, seed=s)).timing["run_s"] for s in range(3)]
     return {"lanes": lanes, "one": one, "fifty": fifty}
 
 

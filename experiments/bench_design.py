@@ -55,7 +55,7 @@ def experiment(label, truth, inputs, duration, dt, u_range, hold, i_limit, bound
         for seed in range(seeds):
             y = measured(x, t, u, sigma, seed, i_limit, nd)
             rec = Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], limit=i_limit, name=f"{name}-{seed}")
-            res = dcjax.fit(rec, params=bounds, runs=runs, seed=seed, polish=True)
+            res = dcjax.fit(rec, params=bounds, search=dcjax.Search(runs=runs, seed=seed, polish=True))
             errs.append([abs(res.params[n] - truth[n]) / abs(truth[n]) if truth[n] else abs(res.params[n]) for n in NAMES])
         rows[name] = (np.mean(errs, axis=0), pred)
         print(f"  {name}: {seeds} noisy refits in {time.perf_counter() - t1:.1f} s")

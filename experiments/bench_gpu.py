@@ -50,7 +50,7 @@ def main():
     sd1 = datasets.load("SD1")
     print("| work | compile s | run s | result |\n|---|---|---|---|")
     for runs in args.runs:
-        r = fit(sd1, params="table4", runs=runs, budget=args.budget, seed=0)
+        r = fit(sd1, params="table4", search=dcjax.Search(runs=runs, budget=args.budget, seed=0))
         ok = int(np.sum(r.run_of <= 1e-15))
         print(f"| SD1, {runs} runs | {r.timing['compile_s']:.2f} | {r.timing['run_s']:.3f} | {ok}/{runs} at OF <= 1e-15 |")
     truth = np.array([datasets.true_params("SD1")[p] for p in DC.names])
@@ -60,7 +60,7 @@ def main():
         u = np.full_like(t, 220.0)
         traj = simulate_numpy(x, t, u)
         recs = [Recording(t=t, u_a=u, i_a=traj[k, :, 0], omega=traj[k, :, 1]) for k in range(motors)]
-        f = fit_each(recs, params="table4", runs=1, budget=args.budget, seed=0)
+        f = fit_each(recs, params="table4", search=dcjax.Search(runs=1, budget=args.budget, seed=0))
         t0 = f[0].timing  # type: ignore[union-attr]
         ofs = np.array([r.of for r in f])  # type: ignore[union-attr]
         print(

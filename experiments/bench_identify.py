@@ -51,7 +51,7 @@ def _batched(method: str, runs: int = 50) -> dict:
 
     from dcjax import datasets, fit
 
-    r = fit(datasets.load("SD1"), params="table4", method=method, runs=runs, seed=0)
+    r = fit(datasets.load("SD1"), params="table4", search=dcjax.Search(method, runs=runs, seed=0))
     return {
         "method": method,
         "runs": runs,

@@ -33,7 +33,13 @@ def main(argv=None):
         recs = case.recordings(0.005, seed)
         line = []
         for tag, obs in SETTINGS.items():
-            res = dcjax.fit(recs, "pmsm", observation=obs, integrator=dcjax.RK4(substeps=8), runs=2, budget=60_000, polish=True, seed=0)
+            res = dcjax.fit(
+                recs,
+                "pmsm",
+                observation=obs,
+                integrator=dcjax.RK4(substeps=8),
+                search=dcjax.Search(runs=2, budget=60_000, seed=0, polish=True),
+            )
             u = res.uncertainty().uncertainties
             assert u is not None
             row = {n: (u.params[n] - v) / u.se[n] for n, v in case.TRUTH.items()}

@@ -30,7 +30,7 @@ def child(count: int, step: int, runs: int, budget: int, local: bool) -> dict:
         recs.append(base.replace(channels={**base.channels, "i_a": y[:, 0], "omega": y[:, 1]}))
     params = dcjax.DC().parameters("table4")
     params["Tla"].set(local=local)
-    res = dcjax.fit(recs, params=params, runs=runs, budget=budget)
+    res = dcjax.fit(recs, params=params, search=dcjax.Search(runs=runs, budget=budget))
     return {"compile_s": res.timing["compile_s"], "run_s": res.timing["run_s"], "of": res.of}
 
 

@@ -1,6 +1,6 @@
 """The methods at equal wall time on many-recording fits (issue: speed at scale, item 4): what a
 joint fit of hundreds of recordings should search with when the command line is given no
-`--method`, `--runs` or `--budget` (`dcjax.fitting.defaults`).
+`--method`, `--runs` or `--budget` (`dcjax.Search.for_steps`).
 
 Cases (each method one run unless named x2, seed 0; with fewer runs than devices a run of a large
 joint fit splits its recordings over its share of them):
@@ -92,7 +92,9 @@ def main():
         n = len(case["data"]) if isinstance(case["data"], list) else 1
         T = args.seconds
         print(f"\n{name}: {n} recording(s); best OF at T/4, T/2, T (from the fit's start); FEs a run")
-        probe = dcjax.fit(case["data"], case["model"], case["params"], "cma-es", runs=1, budget=600, observation=case["observation"])
+        probe = dcjax.fit(
+            case["data"], case["model"], case["params"], search=dcjax.Search("cma-es", runs=1, budget=600), observation=case["observation"]
+        )
         budget = int(2 * T * 600 / probe.timing["run_s"])  # FEs a run: CMA-ES's search alone would fill 2 T
         print(f"{'method':<15} {'T/4':>11} {'T/2':>11} {'T':>11} {'compile':>8} {'FEs':>8} {'to best':>8} {'FEs':>8}")
         rows = []
@@ -100,8 +102,7 @@ def main():
             method, _, x2 = spec.partition(" x")
             runs = int(x2) if x2 else 1
             t0 = time.perf_counter()
-            res = dcjax.fit(case["data"], case["model"], case["params"], method, runs=runs, budget=budget,
-                            observation=case["observation"], seed=0)  # fmt: skip
+            res = dcjax.fit(case["data"], case["model"], case["params"], search=dcjax.Search(method, runs=runs, budget=budget, seed=0), observation=case["observation"])  # fmt: skip
             rows.append((spec, res, *curve(res, time.perf_counter() - t0)))
         best_of = min(float(np.min(b)) for *_, b in rows)
         for spec, res, at, best in rows:

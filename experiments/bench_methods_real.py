@@ -81,8 +81,7 @@ def main():
         print(f"{'method':<15} {'best OF':>11} {'median OF':>11} {'worst OF':>11} {'time':>8}")
         for method in METHODS:
             t0 = time.perf_counter()
-            res = dcjax.fit(case["data"], case["model"], case["params"], method, runs=args.runs, budget=args.budget,
-                            observation=case.get("observation"))  # fmt: skip
+            res = dcjax.fit(case["data"], case["model"], case["params"], search=dcjax.Search(method, runs=args.runs, budget=args.budget), observation=case.get("observation"))  # fmt: skip
             wall = time.perf_counter() - t0
             ofs = [float(v) for v in res.run_of]
             print(f"{method:<15} {min(ofs):11.3e} {statistics.median(ofs):11.3e} {max(ofs):11.3e} {wall:7.1f}s", flush=True)

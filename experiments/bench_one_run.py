@@ -20,7 +20,7 @@ def main():
     rec = datasets.load("SD1")
     # `fit` where the checkout has it (0.2), else `identify`: the same script times the 0.1 commit (3056edf).
     one = (
-        (lambda s: dcjax.fit(rec, params="table4", runs=1, seed=s))
+        (lambda s: dcjax.fit(rec, params="table4", search=dcjax.Search(runs=1, seed=s)))
         if hasattr(dcjax, "fit")
         else (lambda s: dcjax.identify(rec, runs=1, seed=s))
     )

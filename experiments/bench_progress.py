@@ -21,10 +21,10 @@ def main(repeats: int = 6, runs: int = 50):
     rec = datasets.load("SD1")
     plain, chunked = [], []
     for mode in (None, lambda f: None):  # compile both paths first
-        fit(rec, params="table4", runs=runs, seed=0, progress=mode)
+        fit(rec, params="table4", progress=mode, search=dcjax.Search(runs=runs, seed=0))
     for r in range(repeats):
-        a = fit(rec, params="table4", runs=runs, seed=r)
-        b = fit(rec, params="table4", runs=runs, seed=r, progress=lambda f: None)
+        a = fit(rec, params="table4", search=dcjax.Search(runs=runs, seed=r))
+        b = fit(rec, params="table4", progress=lambda f: None, search=dcjax.Search(runs=runs, seed=r))
         assert np.array_equal(a.run_of, b.run_of), "progress changed the result"
         plain.append(a.timing["run_s"])
         chunked.append(b.timing["run_s"])

@@ -35,7 +35,9 @@ def main():
     print(f"{platform.processor() or platform.machine()}, {jax.devices()[0].platform}, {len(jax.devices())} device(s); SD1 with 1 % noise")
     for loss in ("sse", "l1"):
         t0 = time.perf_counter()
-        res = dcjax.fit(rec, params="table4", runs=2, budget=40_000, polish=loss == "sse", observation=dcjax.Observation(loss=loss))
+        res = dcjax.fit(
+            rec, params="table4", observation=dcjax.Observation(loss=loss), search=dcjax.Search(runs=2, budget=40_000, polish=loss == "sse")
+        )
         fit_s = time.perf_counter() - t0
         post = res.sample(draws=1000, chains=4, warmup=1000, seed=0)
         print(f"\n--- {loss} fit ({fit_s:.1f} s), {post.likelihood} likelihood")

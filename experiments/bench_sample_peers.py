@@ -91,7 +91,7 @@ def run_dcjax(rec, truth, draws, warmup, log: bool):
         if log:
             params[n].set(min=truth[n] / 10, max=truth[n] * 10, scale="log", value=None)
     obs = dcjax.Observation(initial={"i_a": 0.0, "omega": 0.0})
-    res = dcjax.fit(rec, params=params, runs=2, budget=40_000, polish=True, observation=obs)
+    res = dcjax.fit(rec, params=params, observation=obs, search=dcjax.Search(runs=2, budget=40_000, polish=True))
     t0 = time.perf_counter()
     post = res.sample(draws=draws, chains=4, warmup=warmup, seed=0)
     total = time.perf_counter() - t0

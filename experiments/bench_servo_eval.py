@@ -122,14 +122,14 @@ def in_fits(recs, box, obs) -> None:
         for k in range(4):
             servo_module.sin = (ours, jnp.sin)[k % 2]
             res = dcjax.fit(
-                recs, "servo", box, "cma-es", observation=obs, runs=1, budget=1200 + k
+                recs, "servo", box, search=dcjax.Search("cma-es", runs=1, budget=1200 + k), observation=obs
             )  # a new budget each: compiled again, not reused
             print(f"fit, {('dcjax.models.trig.sin', 'jnp.sin (libm)')[k % 2]:<22}: CMA-ES 1 run x 1,200 FEs, compile "
                   f"{res.timing['compile_s']:.2f} s, search {res.timing['run_s']:.2f} s, OF {res.of:.7g}", flush=True)  # fmt: skip
         servo_module.sin = ours
         for k in range(4):
             joint.UNROLLED_SUM = (unrolled, 1 << 30)[k % 2]
-            res = dcjax.fit(recs, "servo", box, "de-rand-1-exp", observation=obs, runs=2, budget=3000 + k)
+            res = dcjax.fit(recs, "servo", box, search=dcjax.Search("de-rand-1-exp", runs=2, budget=3000 + k), observation=obs)
             print(f"fit, the ordered sum {('in a loop', 'written out')[k % 2]:<12}: DE 2 runs x 3,000 FEs, compile "
                   f"{res.timing['compile_s']:.2f} s, search {res.timing['run_s']:.2f} s, OFs {', '.join(f'{v:.7g}' for v in res.run_of)}",
                   flush=True)  # fmt: skip

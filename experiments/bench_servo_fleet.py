@@ -136,7 +136,7 @@ def dcjax_fit(goal, const, q, method: str, runs: int, budget: int, seed: int):
 
     recs, box, obs = dcjax_case(goal, const, q)
     t0 = time.perf_counter()
-    res = dcjax.fit(recs, "servo", box, method, observation=obs, runs=runs, budget=budget, seed=seed)
+    res = dcjax.fit(recs, "servo", box, search=dcjax.Search(method, runs=runs, budget=budget, seed=seed), observation=obs)
     return res, time.perf_counter() - t0
 
 

@@ -47,8 +47,8 @@ def main():
         for n in args.logs:
             one, both = [], []
             for _ in range(2):
-                t1, d1, f1 = fit(goal[:n], const[:n], q[:n], method, args.budget, False)
-                t2, d2, f2 = fit(goal[:n], const[:n], q[:n], method, args.budget, True)
+                t1, d1, f1 = fit(goal[:n], const[:n], q[:n], args.budget, False, search=dcjax.Search(method))
+                t2, d2, f2 = fit(goal[:n], const[:n], q[:n], args.budget, True, search=dcjax.Search(method))
                 one.append(t1)
                 both.append(t2)
             same = abs(f1 - f2) <= 1e-9 * abs(f1)

@@ -133,14 +133,16 @@ def run_cell(cell: Cell) -> dict:
     r = dcjax.fit(
         recs if len(recs) > 1 else recs[0],
         params=params,
-        method=method_for(cell),
         integrator=integrator,
-        runs=cell.runs,
-        budget=cell.budget,
-        seed=cell.seed,
-        memory=None if cell.memory is None else MEMORIES[cell.memory],
-        polish=cell.polish,
         observation=FIRST_SAMPLES,
+        search=dcjax.Search(
+            method_for(cell),
+            runs=cell.runs,
+            budget=cell.budget,
+            seed=cell.seed,
+            memory=None if cell.memory is None else MEMORIES[cell.memory],
+            polish=cell.polish,
+        ),
     )
     line = {
         "key": cell.key,

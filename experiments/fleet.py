@@ -30,7 +30,7 @@ def main():
     u = np.full_like(t, 220.0)
     traj = simulate_numpy(x, t, u)
     recs = [Recording(t=t, u_a=u, i_a=traj[k, :, 0], omega=traj[k, :, 1]) for k in range(args.motors)]
-    results = dcjax.fit_each(recs, params="table4", runs=1, budget=args.budget, seed=args.seed)
+    results = dcjax.fit_each(recs, params="table4", search=dcjax.Search(runs=1, budget=args.budget, seed=args.seed))
     params = np.array([[r.best_values[n] for n in DC.names] for r in results])  # type: ignore[union-attr]
     of = np.array([r.of for r in results])  # type: ignore[union-attr]
     timing = results[0].timing  # type: ignore[union-attr]

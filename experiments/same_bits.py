@@ -25,12 +25,11 @@ def show(tag: str, res) -> None:
 def main() -> None:
     print(f"dcjax {dcjax.__version__} from {dcjax.__file__}", file=sys.stderr)
     sd1, sd2, md1 = datasets.load("SD1"), datasets.load("SD2"), datasets.load("MD1")
-    show("SD1-readme", dcjax.fit(sd1, runs=50, budget=140_000, seed=0))
-    show("MD1-table8-rk4nd2", dcjax.fit(md1, params="table8", integrator=dcjax.RK4(substeps=2), runs=4, budget=140_000, seed=0,
-                                        observation=FIRST_SAMPLES))  # fmt: skip
-    show("joint-SD1-SD2", dcjax.fit([sd1, sd2], params="table4", runs=4, budget=28_000, seed=0))
-    show("LTMA", dcjax.fit(sd1, params="table4", memory=dcjax.LTMA(), runs=4, budget=28_000, seed=0))
-    show("polish", dcjax.fit(sd1, params="table4", runs=2, budget=14_000, seed=0, polish=True))
+    show("SD1-readme", dcjax.fit(sd1, search=dcjax.Search(runs=50, budget=140_000, seed=0)))
+    show("MD1-table8-rk4nd2", dcjax.fit(md1, params="table8", integrator=dcjax.RK4(substeps=2), observation=FIRST_SAMPLES, search=dcjax.Search(runs=4, budget=140_000, seed=0)))  # fmt: skip
+    show("joint-SD1-SD2", dcjax.fit([sd1, sd2], params="table4", search=dcjax.Search(runs=4, budget=28_000, seed=0)))
+    show("LTMA", dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=4, budget=28_000, seed=0, memory=dcjax.LTMA())))
+    show("polish", dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=2, budget=14_000, seed=0, polish=True)))
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ t = np.arange(101) * 1e-4
 u = np.full_like(t, 220.0)
 traj = simulate_numpy(x, t, u)
 recs = [Recording(t=t, u_a=u, i_a=traj[k, :, 0], omega=traj[k, :, 1]) for k in range(len(x))]
-rs = dcjax.fit_each(recs, params="table4", runs=1, budget=2100, seed=0)
+rs = dcjax.fit_each(recs, params="table4", search=dcjax.Search(runs=1, budget=2100, seed=0))
 print(
     json.dumps(
         {

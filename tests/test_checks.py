@@ -133,7 +133,7 @@ def test_a_parameter_in_a_null_direction_prints_a_dash_not_a_standard_error():
 
 
 def test_fit_png_of_a_joint_fit_stays_small_and_axes_carry_units(sd1, tmp_path):
-    r = dcjax.fit(sd1, params="table4", runs=1, budget=140)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=1, budget=140))
     many = dataclasses.replace(r, recordings=[sd1] * 16)
     fig = many.plot(tmp_path / "fit.png")
     assert (tmp_path / "fit.png").stat().st_size <= 300_000
@@ -243,7 +243,7 @@ def test_a_zero_at_a_required_parameter_is_a_failed_fit_hint():
 def test_fit_findings_flag_a_rate_slower_than_la_over_ra_and_a_channel_not_followed(sd1):
     from dcjax.analysis.checks import fit_findings
 
-    r = dcjax.fit(sd1, params="table4", runs=1, budget=140)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=1, budget=140))
     truth = datasets.true_params("SD1")  # La/Ra = 1.9 ms, dt = 0.1 ms: resolved
     good = dataclasses.replace(r, best_values=truth)
     assert [f.check for f in fit_findings(good)] == []
@@ -256,8 +256,8 @@ def test_fit_findings_flag_a_rate_slower_than_la_over_ra_and_a_channel_not_follo
 
 def test_fit_each_checks_each_recording_unless_told_not_to(sd1):
     rev = sd1.replace(i_a=-sd1["i_a"], omega=-sd1["omega"], name="rev")  # wired in reverse
-    (a,) = dcjax.fit_each([rev], params="table4", runs=1, budget=140)
-    (b,) = dcjax.fit_each([rev], params="table4", runs=1, budget=140, checks=False)
+    (a,) = dcjax.fit_each([rev], params="table4", search=dcjax.Search(runs=1, budget=140))
+    (b,) = dcjax.fit_each([rev], params="table4", checks=False, search=dcjax.Search(runs=1, budget=140))
     assert "reversed:omega" in {f.label for f in a.checks} and not b.checks  # (SD1's current is a spike: a weak cosine)
 
 

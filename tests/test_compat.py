@@ -31,13 +31,17 @@ def test_identify_warns_and_gives_the_bits_of_fit(sd1):
     with pytest.warns(DeprecationWarning, match="dcjax.fit"):
         old = identify(sd1, integrator="euler", nd=2, weights=(1.0, 0.5), bounds={"Ra": (10.0, 60.0)},
                        fixed={"Tlc": 8.55e-8}, x0={"Ra": 40.0}, memory="ltma-s2", **SMALL)  # fmt: skip
-    new = dcjax.fit(dcjax.with_weights(sd1, {"i_a": 1.0, "omega": 0.5}), params=_table4_params(), integrator=dcjax.Euler(substeps=2),
-                    memory=dcjax.LTMA(order="newest"), **SMALL)  # fmt: skip
+    new = dcjax.fit(
+        dcjax.with_weights(sd1, {"i_a": 1.0, "omega": 0.5}),
+        params=_table4_params(),
+        integrator=dcjax.Euler(substeps=2),
+        search=dcjax.Search(**SMALL, memory=dcjax.LTMA(order="newest")),
+    )
     np.testing.assert_array_equal(old.run_params, new.run_params)
     np.testing.assert_array_equal(old.dups, new.dups)
     with pytest.warns(DeprecationWarning):
         same = identify(sd1, integrator="rk4", nd=2, bounds={"Ra": (10.0, 60.0)}, fixed={"Tlc": 8.55e-8}, x0={"Ra": 40.0}, **SMALL)
-    fitted = dcjax.fit(sd1, params=_table4_params(), integrator=dcjax.RK4(substeps=2), **SMALL)
+    fitted = dcjax.fit(sd1, params=_table4_params(), integrator=dcjax.RK4(substeps=2), search=dcjax.Search(**SMALL))
     np.testing.assert_array_equal(same.run_of, fitted.run_of)
     assert same.params == fitted.params
 
@@ -122,7 +126,7 @@ def test_identify_fleet_is_fit_each(sd1):
     recs = [sd1.select(slice(0, 201)).replace(name=f"m{k}", i_a=sd1.i_a[:201] * (1 + 0.01 * k)) for k in range(3)]
     with pytest.warns(DeprecationWarning):
         fleet = identify_fleet(recs, budget=2100, runs=1, seed=0)
-    each = dcjax.fit_each(recs, params="table4", budget=2100, runs=1, seed=0)
+    each = dcjax.fit_each(recs, params="table4", search=dcjax.Search(runs=1, budget=2100, seed=0))
     for r, e in zip(fleet.results, each):
         np.testing.assert_array_equal(r.run_params, e.run_params)  # pyright: ignore[reportAttributeAccessIssue]
     assert fleet.params.shape == (3, 7)

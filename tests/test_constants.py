@@ -40,12 +40,12 @@ def test_constants_from_a_sidecar_give_the_bits_of_the_same_constants_as_columns
     col = dcjax.load_recording(_write(tmp_path, "col", 2.5, True), model=model)
     side = dcjax.load_recording(_write(tmp_path, "side", 2.5, False), model=model)
     assert "k" in col.channels and side.constants == {"k": 2.5} and "k" not in side.channels
-    a = dcjax.fit(col, model, params="box", runs=2, budget=700)
-    b = dcjax.fit(side, model, params="box", runs=2, budget=700)
+    a = dcjax.fit(col, model, params="box", search=dcjax.Search(runs=2, budget=700))
+    b = dcjax.fit(side, model, params="box", search=dcjax.Search(runs=2, budget=700))
     np.testing.assert_array_equal(a.run_params, b.run_params)
     np.testing.assert_array_equal(a.run_of, b.run_of)
     inline = dcjax.Recording(t=side.t, u=side["u"], y=side["y"], constants={"k": 2.5})
-    np.testing.assert_array_equal(dcjax.fit(inline, model, params="box", runs=2, budget=700).run_of, a.run_of)
+    np.testing.assert_array_equal(dcjax.fit(inline, model, params="box", search=dcjax.Search(runs=2, budget=700)).run_of, a.run_of)
     assert "constants k=2.5" in b.report()
 
 

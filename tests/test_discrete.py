@@ -37,8 +37,8 @@ def test_a_discrete_model_gives_the_trajectory_and_the_fit_of_the_euler_ode_with
     ode = np.asarray(dcjax.simulate(truth, dcjax.make_problem(md, dcjax.Euler())))
     disc = np.asarray(dcjax.simulate(truth, dcjax.make_problem(md, model=EulerDC())))
     np.testing.assert_array_equal(disc, ode)
-    a = dcjax.fit(md, "dc", "table8", integrator=dcjax.Euler(), runs=2, budget=1400)
-    b = dcjax.fit(md, EulerDC(), "table8", runs=2, budget=1400)
+    a = dcjax.fit(md, "dc", "table8", search=dcjax.Search(runs=2, budget=1400), integrator=dcjax.Euler())
+    b = dcjax.fit(md, EulerDC(), "table8", dcjax.Search(runs=2, budget=1400))
     np.testing.assert_array_equal(a.run_params, b.run_params)
     assert b.settings["integrator"] == "discrete" and b.settings["nd"] == 1
     np.testing.assert_array_equal(b.simulate(), a.simulate())
@@ -46,9 +46,9 @@ def test_a_discrete_model_gives_the_trajectory_and_the_fit_of_the_euler_ode_with
 
 def test_an_integrator_for_a_discrete_model_is_a_one_line_error(sd1, tmp_path, capsys):
     with pytest.raises(ValueError, match="discrete-time model .* takes no integrator"):
-        dcjax.fit(sd1, EulerDC(), "table4", integrator=dcjax.RK4(), runs=1, budget=70)
+        dcjax.fit(sd1, EulerDC(), "table4", search=dcjax.Search(runs=1, budget=70), integrator=dcjax.RK4())
     with pytest.raises(ValueError, match="AutoSubsteps"):
-        dcjax.fit(sd1, EulerDC(), "table4", integrator=dcjax.AutoSubsteps(), runs=1, budget=70)
+        dcjax.fit(sd1, EulerDC(), "table4", search=dcjax.Search(runs=1, budget=70), integrator=dcjax.AutoSubsteps())
     spec = f"{__file__}:EulerDC"
     assert cli.main(["fit", "SD1", "--model", spec, "--integrator", "rk4", "--out", str(tmp_path)]) == 2
     assert "--integrator and --nd do not apply" in capsys.readouterr().err

@@ -16,7 +16,7 @@ from dcjax.fitting.polish import polish
 from dcjax.strategies import DERand1Exp
 
 ROOT = Path(__file__).resolve().parent.parent
-SMALL = dict(runs=2, budget=1400, seed=3)
+SMALL = dict(search=dcjax.Search(runs=2, budget=1400, seed=3))
 
 
 class MyEuler(dcjax.Integrator):
@@ -45,7 +45,7 @@ def test_integrator_errors_are_one_line(sd1):
 
 
 def test_the_strategy_objects_pop_size_is_recorded_with_its_duplicate_share(sd1):
-    r = dcjax.fit(sd1, params="table4", method=DERand1Exp(pop_size=40), memory=dcjax.STMA(), runs=2, budget=2000, seed=1)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search(DERand1Exp(pop_size=40), runs=2, budget=2000, seed=1, memory=dcjax.STMA()))
     assert r.settings["pop_size"] == 40 and r.settings["method"] == "de-rand-1-exp"
     expect = 100 * np.mean(r.dups / (40 * (r.iterations + 1)))
     assert r.duplicates is not None and r.duplicates["percent"] == pytest.approx(expect)
@@ -58,7 +58,7 @@ def test_a_polish_stopped_at_its_step_limit_is_not_success(sd1):
     x = jnp.asarray([40.0, 0.07, 0.45, 2.2e-5, 0.02, 3e-5, 8e-8])
     short = polish(x, prob, space, max_steps=2)
     assert not bool(short.converged) and float(short.of_after) <= float(short.of_before)
-    r = dcjax.fit(sd1, params="table4", polish=True, **SMALL)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=2, budget=1400, seed=3, polish=True))
     assert r.polish is not None and len(r.polish["converged"]) == 2
     stopped = dataclasses.replace(r, polish={**r.polish, "converged": [False, True]})
     assert r.success == all(r.polish["converged"]) and not stopped.success
@@ -84,9 +84,9 @@ def test_the_package_paths_use_no_deprecated_name(tmp_path):
 
     with warnings.catch_warnings():
         warnings.filterwarnings("error", message=".*deprecated since dcjax", category=DeprecationWarning)
-        r = dcjax.fit(datasets.load("SD1"), runs=2, budget=700).uncertainty()
+        r = dcjax.fit(datasets.load("SD1"), search=dcjax.Search(runs=2, budget=700)).uncertainty()
         r.report()
-        dcjax.fit_each([datasets.load("SD1"), datasets.load("SD2")], runs=1, budget=700)
+        dcjax.fit_each([datasets.load("SD1"), datasets.load("SD2")], search=dcjax.Search(runs=1, budget=700))
         assert main(["fit", "SD1", "--runs", "2", "--budget", "700", "--memory", "stma", "--out", str(tmp_path)]) == 0
         assert main(["validate", str(tmp_path / "result.json"), "SD2", "--out", str(tmp_path / "v")]) == 0
         assert main(["simulate", str(tmp_path / "result.json"), "SD2", "--out", str(tmp_path / "s")]) == 0

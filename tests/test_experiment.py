@@ -62,7 +62,7 @@ def test_l1_unnormalised_is_the_pooled_mean_absolute_error_by_hand(sd1, truth):
         by_hand += np.concatenate(errs).mean()
     assert got == pytest.approx(by_hand, rel=1e-12)
     assert setup.joint_weights == pytest.approx([501 / 802, 301 / 802])
-    pooled = dcjax.fit(recs, M, "table4", runs=1, budget=140, observation=dcjax.Observation(loss=L1(normalize="none")))
+    pooled = dcjax.fit(recs, M, "table4", search=dcjax.Search(runs=1, budget=140), observation=dcjax.Observation(loss=L1(normalize="none")))
     assert pooled.settings["joint_weights"] == pytest.approx([501 / 802, 301 / 802])
     x = jnp.asarray([pooled.best_values[n] for n in pooled.names])
     assert float(pooled.target().objective(x)) == pytest.approx(pooled.of, rel=1e-12)
@@ -125,9 +125,11 @@ def test_a_fitted_initial_state_of_an_unmeasured_state(sd1, truth):
         if n != "Ra":
             params[n].set(value=truth[n], vary=False)
     with pytest.raises(ValueError, match="y0_omega=LOWER:UPPER"):  # an unmeasured state has no automatic range
-        dcjax.fit(rec, model, params, runs=1, budget=700, observation=dcjax.Observation(initial={"omega": "fit"}))
+        dcjax.fit(rec, model, params, search=dcjax.Search(runs=1, budget=700), observation=dcjax.Observation(initial={"omega": "fit"}))
     params = dcjax.Parameters([*params.values(), dcjax.Parameter("y0_omega", min=0.0, max=100.0)])
-    res = dcjax.fit(rec, model, params, runs=2, budget=2000, observation=dcjax.Observation(initial={"omega": "fit"}), polish=True)
+    res = dcjax.fit(
+        rec, model, params, search=dcjax.Search(runs=2, budget=2000, polish=True), observation=dcjax.Observation(initial={"omega": "fit"})
+    )
     assert res.names == (*model.names, "y0_omega")
     assert res.best_values["y0_omega"] == pytest.approx(40.0, rel=1e-6) and res.best_values["Ra"] == pytest.approx(truth["Ra"], rel=1e-6)
     notes = Observation().notes(model, [rec])

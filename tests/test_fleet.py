@@ -57,9 +57,9 @@ def test_sharded_fleet_equals_single_device():
 def test_fleet_recovers_motors():
     """The fleet is the batch runner: each motor's full result, the bits of a fit of it alone."""
     recs = fleet_recordings(4, seed=1)
-    results = dcjax.fit_each(recs, params="table4", runs=1, seed=0)
+    results = dcjax.fit_each(recs, params="table4", search=dcjax.Search(runs=1, seed=0))
     assert all(np.all(r.fes == 140_000) for r in results)
-    alone = dcjax.fit(recs[2], params="table4", runs=1, seed=0)
+    alone = dcjax.fit(recs[2], params="table4", search=dcjax.Search(runs=1, seed=0))
     np.testing.assert_array_equal(results[2].run_params, alone.run_params)
     assert results[2].success and results[2].nfev == alone.nfev
     for rec, r in zip(recs, results):

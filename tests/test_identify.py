@@ -1,5 +1,6 @@
 """fit(), the LM polish, the result object and the CLI."""
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -21,9 +22,10 @@ NAMES = dcjax.DC.names
 BOX4 = dcjax.Bounds(dcjax.DC().parameters("table4").lower, dcjax.DC().parameters("table4").upper, NAMES)
 
 
-def fit(rec, params="table4", **kw):
-    """`dcjax.fit` with Table 4's ranges."""
-    return dcjax.fit(rec, params=params, **kw)
+def fit(rec, params="table4", search=None, **kw):
+    """`dcjax.fit` with Table 4's ranges; a `Search` field given by its name (`runs=3`) goes into `search`."""
+    given = {k: kw.pop(k) for k in ("method", "runs", "budget", "seed", "memory", "polish") if k in kw}
+    return dcjax.fit(rec, params=params, search=dataclasses.replace(search or dcjax.Search(), **given), **kw)
 
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -33,7 +35,7 @@ ROOT = Path(__file__).resolve().parent.parent
 def test_de_rand_1_exp_recovers_sd_parameters(name):
     """Paper Table 5/6: DE/rand/1/exp with RK4, NP = 70, 140,000 FEs (here 2 runs per set;
     the 50-run check is experiments/table5_sd.py)."""
-    r = fit(datasets.load(name), method="de-rand-1-exp", runs=2, seed=1)
+    r = fit(datasets.load(name), search=dcjax.Search("de-rand-1-exp", runs=2, seed=1))
     assert np.all(r.run_of <= 1e-15), r.run_of
     truth = datasets.true_params(name)
     for x in r.run_params:
@@ -46,7 +48,7 @@ def test_de_rand_1_exp_recovers_sd_parameters(name):
 def test_table5_ranking_on_sd1():
     """DE/rand/1/exp best, GA worst (2 runs each, full budget)."""
     means = {
-        m: fit(datasets.load("SD1"), method=m, runs=2, seed=0).stats["mean"]
+        m: fit(datasets.load("SD1"), search=dcjax.Search(m, runs=2, seed=0)).stats["mean"]
         for m in ("ga", "de-rand-1-exp", "de-best-1-bin", "tlbo", "abc")
     }
     assert means["de-rand-1-exp"] <= 1e-25
@@ -59,7 +61,11 @@ def test_table5_ranking_on_sd1():
 
 def test_same_seed_same_result_different_seed_different(sd1):
     kw = dict(method="de-rand-1-exp", runs=3, budget=3500)
-    a, b, c = fit(sd1, seed=5, **kw), fit(sd1, seed=5, **kw), fit(sd1, seed=6, **kw)
+    a, b, c = (
+        fit(sd1, **kw, seed=5),
+        fit(sd1, **kw, seed=5),
+        fit(sd1, **kw, seed=6),
+    )
     np.testing.assert_array_equal(a.run_of, b.run_of)
     np.testing.assert_array_equal(a.run_params, b.run_params)
     np.testing.assert_array_equal(a.history, b.history)
@@ -85,7 +91,7 @@ def test_sharded_runs_equal_single_device(tmp_path):
 
 
 def test_result_object(sd1, tmp_path):
-    r = fit(sd1, method="tlbo", runs=2, budget=2100, seed=0)
+    r = fit(sd1, search=dcjax.Search("tlbo", runs=2, budget=2100, seed=0))
     d = json.loads(r.to_json(tmp_path / "r.json"))
     assert set(d["params"]) == set(NAMES) and d["of"] == min(x["of"] for x in d["runs"])
     assert set(d["stats"]) == {"best", "worst", "mean", "std"} and len(d["runs"]) == 2
@@ -131,7 +137,7 @@ def test_levenberg_marquardt_reaches_scipys_least_squares_optimum():
 
 @pytest.mark.slow
 def test_polish_flag(sd1):
-    r = fit(sd1, method="ga", runs=2, budget=1400, seed=0, polish=True)
+    r = fit(sd1, search=dcjax.Search("ga", runs=2, budget=1400, seed=0, polish=True))
     assert np.all(np.asarray(r.polish["of_after"]) <= np.asarray(r.polish["of_before"]))
     np.testing.assert_array_equal(r.run_of, r.polish["of_after"])
 
@@ -201,11 +207,11 @@ def test_a_short_search_compiles_quick_to_the_same_bits(sd1, monkeypatch):
     assert runs.compiler_options(mid) == runs.QUICK_COMPILE and runs.compiler_options(mid, plain=False) is None
     seen = []
     monkeypatch.setattr(runs, "compiler_options", lambda work, plain=True: seen.append(work) or runs.QUICK_COMPILE)
-    quick = dcjax.fit(sd1, runs=2, budget=700, seed=3)
-    dcjax.fit(sd1, runs=4, budget=700, seed=3)
+    quick = dcjax.fit(sd1, search=dcjax.Search(runs=2, budget=700, seed=3))
+    dcjax.fit(sd1, search=dcjax.Search(runs=4, budget=700, seed=3))
     assert seen == [700 * len(sd1.t)] * 2  # RK4, one sub-step: budget x samples, whatever the runs
     monkeypatch.setattr(runs, "compiler_options", lambda work, plain=True: None)
-    default = dcjax.fit(sd1, runs=2, budget=700, seed=3)
+    default = dcjax.fit(sd1, search=dcjax.Search(runs=2, budget=700, seed=3))
     assert not default.timing["reused_executable"]  # its own program, not the quick one
     assert np.array_equal(quick.run_of, default.run_of) and np.array_equal(quick.run_params, default.run_params)
 
@@ -216,10 +222,10 @@ def test_run_r_is_keyed_by_fold_in_of_the_seed_whatever_the_number_of_runs(sd1):
     gives other runs, and the keys are `runner.fold_keys`'."""
     from dcjax.fitting.runner import fold_keys
 
-    one, three = (dcjax.fit(sd1, runs=n, budget=700, seed=5) for n in (1, 3))
+    one, three = (dcjax.fit(sd1, search=dcjax.Search(runs=n, budget=700, seed=5)) for n in (1, 3))
     assert np.array_equal(one.run_params[0], three.run_params[0]) and one.run_of[0] == three.run_of[0]
     assert len(set(map(float, three.run_of))) == 3  # three different runs
-    assert not np.array_equal(dcjax.fit(sd1, runs=1, budget=700, seed=6).run_params[0], one.run_params[0])
+    assert not np.array_equal(dcjax.fit(sd1, search=dcjax.Search(runs=1, budget=700, seed=6)).run_params[0], one.run_params[0])
     inside = jax.jit(lambda seed, ids: jax.vmap(lambda r: jax.random.fold_in(jax.random.PRNGKey(seed), r))(ids))
     np.testing.assert_array_equal(np.asarray(inside(np.int64(5), np.arange(3))), np.asarray(fold_keys(5, 3)))
 
@@ -239,7 +245,7 @@ def test_repeated_fits_do_not_accumulate_memory_mappings(sd1, monkeypatch):
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
     counts = []
     for k in range(cache.size + 3):  # distinct executables: the cache fills, then evicts
-        fit(sd1, method=make_strategy(methods[k % 5], pop_size=70 - k // 5), runs=1, budget=140, seed=k)
+        fit(sd1, search=dcjax.Search(make_strategy(methods[k % 5], pop_size=70 - k // 5), runs=1, budget=140, seed=k))
         counts.append(maps())
     full = cache.size - 1
     assert counts[-1] - counts[full] < 600, counts  # were the executables kept: ~450 more per call
@@ -266,9 +272,9 @@ def test_a_sweep_over_f_and_cr_reuses_one_executable(sd1):
     """DE's F and CR are arguments of the compiled runs (`Strategy.traced`), not constants: another
     F or CR runs the same executable, and gives other runs; the same F gives the same bits."""
     kw = dict(runs=2, budget=2100, seed=1)
-    a = fit(sd1, method=make_strategy("de-rand-1-exp", f=0.5, cr=0.9), **kw)
-    b = fit(sd1, method=make_strategy("de-rand-1-exp", f=0.7, cr=0.6), **kw)
-    c = fit(sd1, method=DERand1Exp(f=0.5, cr=0.9), **kw)
+    a = fit(sd1, **kw, search=dcjax.Search(make_strategy("de-rand-1-exp", f=0.5, cr=0.9)))
+    b = fit(sd1, **kw, search=dcjax.Search(make_strategy("de-rand-1-exp", f=0.7, cr=0.6)))
+    c = fit(sd1, **kw, search=dcjax.Search(DERand1Exp(f=0.5, cr=0.9)))
     assert b.timing["reused_executable"] and c.timing["reused_executable"]
     assert not np.array_equal(a.run_params, b.run_params)
     np.testing.assert_array_equal(a.run_params, c.run_params)

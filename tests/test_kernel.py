@@ -64,9 +64,9 @@ def test_kernel_non_uniform_steps_and_a_custom_model():
 
 @pytest.mark.slow
 def test_identify_through_the_kernel_equals_the_scan(sd1, monkeypatch):
-    a = dcjax.fit(sd1, params="table4", runs=2, budget=350, seed=3)
+    a = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=2, budget=350, seed=3))
     monkeypatch.setenv("DCJAX_KERNEL", "interpret")
-    b = dcjax.fit(sd1, params="table4", runs=2, budget=350, seed=3)
+    b = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=2, budget=350, seed=3))
     assert not b.timing["reused_executable"]  # the kernel mode is part of the executable's key
     np.testing.assert_allclose(b.run_of, a.run_of, rtol=1e-12)
     np.testing.assert_allclose(b.run_params, a.run_params, rtol=1e-12)

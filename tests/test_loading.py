@@ -152,7 +152,7 @@ def test_saving_a_plot_keeps_the_backend(sd1, tmp_path):
     import matplotlib
 
     before = matplotlib.get_backend()
-    r = dcjax.fit(sd1, params="table4", runs=1, budget=140)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=1, budget=140))
     r.plot(tmp_path / "fit.png")
     assert matplotlib.get_backend() == before and (tmp_path / "fit.png").stat().st_size > 10_000
     from matplotlib.figure import Figure

@@ -47,7 +47,7 @@ def test_a_log_scale_search_finds_a_parameter_six_decades_below_its_range_top():
     errors = {}
     for scale in ("linear", "log"):
         params = dcjax.Parameters([dcjax.Parameter("k", min=1e-6, max=1.0, scale=scale)])
-        res = dcjax.fit(rec, Leak(), params, runs=1, budget=600, seed=0)
+        res = dcjax.fit(rec, Leak(), params, dcjax.Search(runs=1, budget=600, seed=0))
         errors[scale] = abs(res.best_values["k"] - k) / k
         assert res.settings.get("log") == (["k"] if scale == "log" else None)
     assert errors["log"] < 1e-2 and errors["linear"] > 100 * errors["log"], errors  # measured: 2.4e-3 vs 7.2 (719 %)

@@ -235,8 +235,7 @@ def fit_cell(model_key: str, lengths_key: str, feature: str) -> tuple[dcjax.FitR
     model = case.encoder if "initial-derivative" in parts(feature) else case.model
     params = start_parameters(model, truth, feature, case, len(recs))
     integrator = None if case.discrete else dcjax.RK4(substeps=4)
-    res = dcjax.fit(list(recs), model, params, observation=observation(case, feature), integrator=integrator, runs=1, budget=70,
-                    polish=True)  # fmt: skip
+    res = dcjax.fit(list(recs), model, params, search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature), integrator=integrator)  # fmt: skip
     return res, truth
 
 
@@ -302,7 +301,9 @@ def test_each_fits_every_recording_alone(model_key):
     assert [len(r) for r in recs] == [240, 216, 120]
     params = start_parameters(case.model, truth, "plain", case, 1)
     integrator = None if case.discrete else dcjax.RK4(substeps=4)
-    out = dcjax.fit_each([*recs, "no/such/file.csv"], case.model, params, integrator=integrator, runs=1, budget=70, polish=True)
+    out = dcjax.fit_each(
+        [*recs, "no/such/file.csv"], case.model, params, search=dcjax.Search(runs=1, budget=70, polish=True), integrator=integrator
+    )
     assert isinstance(out[-1], dcjax.FailedFit) and "no such file" in out[-1].error.lower()
     for res, rec in zip(out[:-1], recs):
         assert isinstance(res, dcjax.FitResult)
@@ -386,8 +387,7 @@ def test_nd_autos_reference_carries_every_feature(model_key, lengths_key, featur
         err = np.max(np.abs(got - np.asarray(p.y_meas)) / np.max(np.abs(np.asarray(p.y_meas)), axis=0))
         assert err < 1e-8, (r, err)
     if lengths_key != "far":
-        res = dcjax.fit(list(recs), model, start_parameters(model, truth, feature, case, len(recs)), observation=observation(case, feature),
-                        integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-6), runs=1, budget=70, polish=True)  # fmt: skip
+        res = dcjax.fit(list(recs), model, start_parameters(model, truth, feature, case, len(recs)), search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature), integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-6))  # fmt: skip
         auto = res.settings["nd_auto"]
         assert auto["converged"] and auto["reference_error"] <= 1e-6 and set(res.best_values) == set(truth)
 

@@ -17,7 +17,7 @@ class DCSpeed(dcjax.DC):
 
 
 def test_measure_gives_the_bits_of_a_model_class_that_measures_the_same(sd1, tmp_path):
-    kw = dict(runs=1, budget=1400, seed=3)
+    kw = dict(search=dcjax.Search(runs=1, budget=1400, seed=3))
     by_flag = dcjax.fit(sd1, "dc", "table4", observation=dcjax.Observation(measure=("omega",)), **kw)
     by_class = dcjax.fit(sd1, DCSpeed(), "table4", **kw)
     assert by_flag.model.outputs == by_class.model.outputs == ("omega",)

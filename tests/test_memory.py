@@ -203,7 +203,12 @@ def test_memory_keeps_the_iteration_count_and_saves_fes(sd1_fn):
 
 
 def test_fit_with_memory(sd1):
-    r = dcjax.fit(sd1, "dc", "table4", make_strategy("de-rand-1-exp", generations=150), runs=3, budget=14_000, memory=dcjax.STMA(), seed=2)
+    r = dcjax.fit(
+        sd1,
+        "dc",
+        "table4",
+        dcjax.Search(make_strategy("de-rand-1-exp", generations=150), runs=3, budget=14_000, seed=2, memory=dcjax.STMA()),
+    )
     assert r.dups is not None and np.all(r.fes <= 14_000) and np.all(r.iterations == 150)
     np.testing.assert_array_equal(r.fes + r.dups, 70 * 151)
     assert 0 < r.duplicates["percent"] < 100
@@ -214,13 +219,13 @@ def test_fit_with_memory(sd1):
 
 def test_memory_input_errors(sd1):
     with pytest.raises(ValueError, match="memory"):
-        dcjax.fit(sd1, params="table4", runs=1, budget=700, memory="ltma")  # pyright: ignore[reportArgumentType]
+        dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=1, budget=700, memory="ltma"))  # pyright: ignore[reportArgumentType]
     params = dcjax.DC().parameters("table4")
     params["Ra"].set(precision=-1.0)
     with pytest.raises(ValueError, match="precision"):
-        dcjax.fit(sd1, params=params, runs=1, budget=700, memory=dcjax.STMA())
+        dcjax.fit(sd1, params=params, search=dcjax.Search(runs=1, budget=700, memory=dcjax.STMA()))
     with pytest.raises(ValueError, match="generations"):
-        dcjax.fit(sd1, params="table4", method=make_strategy("de-rand-1-exp", generations=0), runs=1, budget=700)
+        dcjax.fit(sd1, params="table4", search=dcjax.Search(make_strategy("de-rand-1-exp", generations=0), runs=1, budget=700))
     with pytest.raises(ValueError, match="positive"):
         load_torque_precision(0.0, 209.0, 1e-3, 1e-3, 1e-3, 1e-4)
 

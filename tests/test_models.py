@@ -103,7 +103,7 @@ def test_series_model_simulates_like_an_independent_numpy_rk4():
 @pytest.mark.slow
 def test_series_model_end_to_end_de_polish_uncertainty():
     rec = series_recording()
-    r = dcjax.fit(rec, SeriesWound(), _params(SeriesWound()), runs=2, budget=42_000, seed=0, polish=True)
+    r = dcjax.fit(rec, SeriesWound(), _params(SeriesWound()), dcjax.Search(runs=2, budget=42_000, seed=0, polish=True))
     assert r.names == SeriesWound.names and r.of < 1e-20, r.run_of
     for n, v in SERIES_TRUE.items():
         assert abs(r.params[n] - v) <= 1e-6 * v, (n, r.params[n], v)
@@ -136,7 +136,7 @@ def test_coulomb_model_recovers_friction_on_a_reversing_drive_and_dc_does_not():
     prob = make_problem(rec, model="dc-coulomb")
     x = jnp.asarray([SD1[n] for n in DC.names])
     assert float(objective(x, prob)) < 1e-28  # the same model as the NumPy reference
-    kw = dict(runs=2, budget=70_000, seed=3)
+    kw = dict(search=dcjax.Search(runs=2, budget=70_000, seed=3))
     coul = dcjax.fit(rec, "dc-coulomb", _params("dc-coulomb", bounds={"Tla": (0.0, 0.1), "Tlc": (0.0, 1e-6)}), **kw)
     plain = dcjax.fit(rec, "dc", _params("dc", bounds={"Tla": (0.0, 0.1), "Tlc": (0.0, 1e-6)}), **kw)
     assert abs(coul.params["Tla"] - SD1["Tla"]) <= 1e-4 * SD1["Tla"], coul.params
@@ -155,7 +155,7 @@ def test_coulomb_sign_is_smooth_and_odd():
 
 # -- parameters by name ---------------------------------------------------------------------------------
 def test_fixed_parameters_shrink_the_search_and_are_reported(sd1):
-    r = dcjax.fit(sd1, params=_params(fixed={"Ra": 42.5, "Tlc": SD1["Tlc"]}), runs=2, budget=21_000, seed=0)
+    r = dcjax.fit(sd1, params=_params(fixed={"Ra": 42.5, "Tlc": SD1["Tlc"]}), search=dcjax.Search(runs=2, budget=21_000, seed=0))
     assert r.params["Ra"] == 42.5 and r.params["Tlc"] == SD1["Tlc"] and np.all(r.run_params[:, 0] == 42.5)
     assert r.fixed == {"Ra": 42.5, "Tlc": SD1["Tlc"]}
     d = r.to_dict()
@@ -175,20 +175,20 @@ def test_search_dimension_is_the_free_count(sd1):
             seen["dim"] = dim
             return super().init(key, fn, budget, dim, x0)
 
-    dcjax.fit(sd1, params=_params(fixed={"Ra": 42.5, "Tlc": 0.0}), method=Spy(), runs=1, budget=140)
+    dcjax.fit(sd1, params=_params(fixed={"Ra": 42.5, "Tlc": 0.0}), search=dcjax.Search(Spy(), runs=1, budget=140))
     assert seen["dim"] == 5
 
 
 def test_bad_names_list_the_models_parameters(sd1):
     extra = dcjax.Parameters([*_params().values(), dcjax.Parameter("Rb", value=1.0, vary=False)])
     with pytest.raises(ValueError, match="unknown parameter.* Rb for model dc"):
-        dcjax.fit(sd1, params=extra, runs=1, budget=70)
+        dcjax.fit(sd1, params=extra, search=dcjax.Search(runs=1, budget=70))
     with pytest.raises(ValueError, match="unknown fixed parameter 'Rb' for model dc; its parameters are Ra, La"):
         DC().check_names({"Rb": 1.0}, "fixed parameter")
     with pytest.raises(KeyError, match="Jx"):
         _params(bounds={"Jx": (0, 1)})
     with pytest.raises(ValueError, match="outside its bounds"):
-        dcjax.fit(sd1, params=_params(x0={"Ra": 1e3}), runs=1, budget=70)
+        dcjax.fit(sd1, params=_params(x0={"Ra": 1e3}), search=dcjax.Search(runs=1, budget=70))
     with pytest.raises(ValueError, match="unknown model 'shunt'"):
         get_model("shunt")
     with pytest.raises(ValueError, match="cannot import model"):
@@ -197,12 +197,12 @@ def test_bad_names_list_the_models_parameters(sd1):
 
 def test_start_values_seed_the_population(sd1):
     truth = {n: SD1[n] for n in DC.names}
-    r = dcjax.fit(sd1, params=_params(x0=truth), runs=1, budget=70)  # one population: the seeded member is evaluated
+    r = dcjax.fit(sd1, params=_params(x0=truth), search=dcjax.Search(runs=1, budget=70))  # one population: the seeded member is evaluated
     assert r.of < 1e-25
 
 
 def test_per_name_bounds_override_the_preset(sd1):
-    r = dcjax.fit(sd1, params=_params(bounds={"Ra": (40.0, 45.0)}), runs=1, budget=140)
+    r = dcjax.fit(sd1, params=_params(bounds={"Ra": (40.0, 45.0)}), search=dcjax.Search(runs=1, budget=140))
     assert r.settings["bounds"]["lower"][0] == 40.0 and r.settings["bounds"]["upper"][1] == 1.0
     assert 40.0 <= r.params["Ra"] <= 45.0
 

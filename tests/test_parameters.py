@@ -91,7 +91,7 @@ def test_recording_channels_by_any_name():
 
 
 def test_result_params_are_parameters_and_result_json_keeps_values(tmp_path):
-    res = dcjax.fit(dcjax.datasets.load("MD1").replace(limit=9.0), params="table8", runs=2, budget=1400, seed=3)
+    res = dcjax.fit(dcjax.datasets.load("MD1").replace(limit=9.0), params="table8", search=dcjax.Search(runs=2, budget=1400, seed=3))
     assert isinstance(res.params, dcjax.Parameters) and res.params == res.best_values
     assert res.params["Ra"].min == 0.0 and res.params["Tla"].max == 20.0 and res.params["J"].unit == "kg m^2"
     assert res.params["Ra"] - res.best_values["Ra"] == 0.0
@@ -114,8 +114,8 @@ def test_fit_each_takes_one_parameters_per_recording():
     a, b = sd1.replace(name="a"), sd1.replace(name="b", i_a=sd1.i_a * 1.01)
     pa, pb = table4(), table4()
     pb["Ra"].set(min=30.0, max=50.0)
-    each = dcjax.fit_each([a, b], params=[pa, pb], runs=1, budget=700, seed=2)
-    alone = [dcjax.fit(r, params=p, runs=1, budget=700, seed=2) for r, p in ((a, pa), (b, pb))]
+    each = dcjax.fit_each([a, b], params=[pa, pb], search=dcjax.Search(runs=1, budget=700, seed=2))
+    alone = [dcjax.fit(r, params=p, search=dcjax.Search(runs=1, budget=700, seed=2)) for r, p in ((a, pa), (b, pb))]
     for e, s in zip(each, alone):
         _same_runs(e, s)
     assert isinstance(each[1], dcjax.FitResult) and each[1].params["Ra"].min == 30.0 and 30.0 <= each[1].params["Ra"] <= 50.0

@@ -73,7 +73,7 @@ def test_the_current_vector_limit_equals_the_reference_clamp():
 @pytest.mark.slow
 def test_a_fit_recovers_the_truth_and_design_and_the_cli_run(tmp_path):
     rec = recording()
-    res = dcjax.fit(rec, "pmsm", runs=1, budget=1400, integrator=dcjax.RK4(substeps=8), polish=True)
+    res = dcjax.fit(rec, "pmsm", integrator=dcjax.RK4(substeps=8), search=dcjax.Search(runs=1, budget=1400, polish=True))
     assert max(abs(res.best_values[n] / v - 1) for n, v in TRUTH.items()) < 1e-6, res.best_values
     d = dcjax.design_input(dcjax.PMSM(), TRUTH, duration=0.02, dt=DT, u_range={"ud": (-2.0, 2.0), "uq": (0.0, 10.0)}, hold=2e-3,
                            given=CONSTANTS, starts=2, steps=5)  # fmt: skip

@@ -158,7 +158,7 @@ def test_sample_sd1_with_one_percent_noise_converges(noisy_sd1, tmp_path):
     """All seven parameters (Tlb and Tlc against their bound 0) and the two initial states, which
     the default fits on noisy channels: R-hat <= 1.01, bulk ESS >= 400; the noise scales are the
     1 % added; same seed, same draws."""
-    res = dcjax.fit(noisy_sd1, params="table4", runs=2, budget=40_000, polish=True)
+    res = dcjax.fit(noisy_sd1, params="table4", search=dcjax.Search(runs=2, budget=40_000, polish=True))
     post = res.sample(draws=500, chains=4, warmup=500, seed=0)
     assert post.likelihood == "Gaussian"
     for n in post.names:

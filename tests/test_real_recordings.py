@@ -167,7 +167,7 @@ def test_bounds_auto_of_a_long_joint_fit_estimates_a_spread_few(sd1, monkeypatch
 
 
 def test_bounds_auto_fits_sd1_exactly(sd1):
-    res = dcjax.fit(sd1, params="auto", runs=4, seed=3)
+    res = dcjax.fit(sd1, params="auto", search=dcjax.Search(runs=4, seed=3))
     assert np.all(res.run_of <= 1e-15)
     truth = datasets.true_params("SD1")
     for n, v in truth.items():
@@ -188,9 +188,9 @@ def test_robust_outliers():
 
 def test_fit_each_in_one_call_equals_one_fit_each():
     recs = [datasets.load(n) for n in ("SD1", "SD4")]
-    batch = fit_each(recs, runs=2, budget=2800, polish=True)
+    batch = fit_each(recs, search=dcjax.Search(runs=2, budget=2800, polish=True))
     for rec, b in zip(recs, batch):
-        alone = dcjax.fit(rec, runs=2, budget=2800, polish=True)
+        alone = dcjax.fit(rec, search=dcjax.Search(runs=2, budget=2800, polish=True))
         assert b.timing["batch"] == 2
         np.testing.assert_array_equal(b.run_of, alone.run_of)
         assert b.params == alone.params and b.settings["bounds"] == alone.settings["bounds"]
@@ -199,7 +199,7 @@ def test_fit_each_in_one_call_equals_one_fit_each():
 def test_fit_each_fails_a_dead_sensor_alone():
     recs = [datasets.load(n) for n in ("SD1", "SD2", "SD3")]
     dead = recs[1].replace(i_a=np.zeros(len(recs[1])), name="dead")
-    out = fit_each([recs[0], dead, recs[2], "no/such/file.csv"], runs=2, budget=1400)
+    out = fit_each([recs[0], dead, recs[2], "no/such/file.csv"], search=dcjax.Search(runs=2, budget=1400))
     assert [isinstance(r, FailedFit) for r in out] == [False, True, False, True]
     assert "all zero" in out[1].error and "no such file" in out[3].error
     rows = summary_rows(out)
@@ -230,7 +230,7 @@ def test_fit_with_parameters_and_lmfits_statistics(sd1):
     params = dcjax.DC().parameters("table4")
     params["Tlc"].set(value=8.55e-8, vary=False)
     params["Ra"].set(min=10.0, max=60.0, value=40.0)
-    a = dcjax.fit(sd1, params=params, integrator=dcjax.RK4(substeps=2), runs=2, budget=2800, seed=5)
+    a = dcjax.fit(sd1, params=params, integrator=dcjax.RK4(substeps=2), search=dcjax.Search(runs=2, budget=2800, seed=5))
     assert a.fixed == {"Tlc": 8.55e-8}
     assert a.nvarys == 6 and a.ndata == 2 * len(sd1) and a.nfev == int(a.fes.sum()) == 2 * 2800
     n = a.ndata
@@ -245,13 +245,15 @@ def test_fit_with_parameters_and_lmfits_statistics(sd1):
 
 @pytest.mark.slow
 def test_fit_typed_options(sd1):
-    e = dcjax.fit(sd1, params="table4", integrator=dcjax.Euler(substeps=3), runs=1, budget=1400)
+    e = dcjax.fit(sd1, params="table4", integrator=dcjax.Euler(substeps=3), search=dcjax.Search(runs=1, budget=1400))
     assert (e.settings["integrator"], e.settings["nd"]) == ("euler", 3)
     m = dcjax.fit(
-        sd1, params="table4", method=dcjax.strategies.DERand1Exp(pop_size=40), memory=dcjax.LTMA(order="oldest"), runs=1, budget=1400
+        sd1,
+        params="table4",
+        search=dcjax.Search(dcjax.strategies.DERand1Exp(pop_size=40), runs=1, budget=1400, memory=dcjax.LTMA(order="oldest")),
     )
     assert m.settings["memory"] == "ltma-s1" and m.settings["pop_size"] == 40
-    w = dcjax.fit(dcjax.with_weights(sd1, {"omega": 0.5}), params="table4", runs=1, budget=1400)
+    w = dcjax.fit(dcjax.with_weights(sd1, {"omega": 0.5}), params="table4", search=dcjax.Search(runs=1, budget=1400))
     assert w.settings["weights"] == [1.0, 0.5]
     for kw, match in (
         ({"integrator": "rk4"}, "integrator must be"),
@@ -259,11 +261,11 @@ def test_fit_typed_options(sd1):
         ({"params": 3}, "params must be"),
     ):
         with pytest.raises(ValueError, match=match):
-            dcjax.fit(sd1, runs=1, budget=1400, **kw)
+            dcjax.fit(sd1, **kw, search=dcjax.Search(runs=1, budget=1400))
     bad = dcjax.DC().parameters()
     bad["Ra"].set(min=5.0, max=1.0)
     with pytest.raises(ValueError, match="min 5 is above max 1"):
-        dcjax.fit(sd1, params=bad, runs=1, budget=1400)
+        dcjax.fit(sd1, params=bad, search=dcjax.Search(runs=1, budget=1400))
 
 
 def test_parameters_roundtrip_and_errors():
@@ -284,7 +286,7 @@ def test_a_hundred_recordings_with_one_broken_give_99_fits_and_one_failure():
     rng = np.random.default_rng(0)
     recs = [sd1.replace(i_a=sd1.i_a * (1 + 0.01 * rng.standard_normal()), name=f"motor{k:03d}") for k in range(100)]
     recs[37] = recs[37].replace(omega=np.zeros(len(sd1)))  # a dead speed sensor
-    out = fit_each(recs, params="table4", runs=1, budget=140)
+    out = fit_each(recs, params="table4", search=dcjax.Search(runs=1, budget=140))
     failed = [k for k, r in enumerate(out) if isinstance(r, FailedFit)]
     assert failed == [37] and "'omega' is all zero" in out[37].error
     assert all(r.success for r in out if not isinstance(r, FailedFit))

@@ -30,7 +30,7 @@ def _se(noise: np.ndarray, loss) -> float:
     rec = dcjax.Recording(t=t, channels={"u": np.zeros(N), "y": 1.0 + noise}, name="level")
     params = dcjax.Parameters([dcjax.Parameter("c", min=0.5, max=1.5)])
     obs = dcjax.Observation(loss=loss, initial={"y": "measured"})
-    res = dcjax.fit(rec, Level(), params, "de-rand-1-exp", observation=obs, runs=1, budget=1400, seed=0)
+    res = dcjax.fit(rec, Level(), params, search=dcjax.Search("de-rand-1-exp", runs=1, budget=1400, seed=0), observation=obs)
     return res.uncertainty().uncertainties.se["c"]
 
 

@@ -1,6 +1,7 @@
-"""The command line's search where none is asked for (`dcjax.fitting.defaults`): the paper's for
-one recording, `--each` and a short joint fit; a shorter DE/best/1/bin search for a joint fit of many
-recordings; a flag that is given always wins."""
+"""The search where none is asked for (`dcjax.Search.for_steps`), on the command line and in
+`dcjax.fit(search=None)`: the paper's for one recording, `--each` and a short joint fit; a shorter
+DE/best/1/bin search for a joint fit of many recordings; a flag that is given always wins; the
+0.3 keywords of `fit` still work, with a warning, and give the same bits."""
 
 import numpy as np
 import pytest
@@ -8,7 +9,9 @@ import pytest
 import dcjax
 from dcjax.cli.args import _parser
 from dcjax.cli.fitting import _search
-from dcjax.fitting.defaults import MANY_SEARCH, MANY_STEPS, PAPER_SEARCH, search_defaults
+from dcjax.fitting.search import MANY_STEPS, Search
+
+PAPER_SEARCH, MANY_SEARCH = Search.paper(), Search.many()
 
 
 def recordings(n: int, samples: int) -> list[dcjax.Recording]:
@@ -18,16 +21,16 @@ def recordings(n: int, samples: int) -> list[dcjax.Recording]:
 
 def chosen(argv: list[str], recs) -> tuple:
     args = _parser().parse_args(["fit", "a.csv", *argv])
-    options = _search(args, recs)
-    assert (options["runs"], options["budget"]) == (args.runs, args.budget)
-    return args.method, args.runs, args.budget, type(options["method"]).__name__
+    search = _search(args, recs)
+    assert (search.runs, search.budget) == (args.runs, args.budget)
+    return args.method, args.runs, args.budget, type(search.strategy).__name__
 
 
 def test_a_joint_fit_of_many_samples_gets_the_short_search():
     many = recordings(4, MANY_STEPS // 4)
     assert chosen([], many) == (MANY_SEARCH.method, MANY_SEARCH.runs, MANY_SEARCH.budget, "DEBest1Bin")
     assert chosen(["--nd", "2"], recordings(4, MANY_STEPS // 8)) == chosen([], many)  # sub-steps count
-    assert search_defaults(MANY_STEPS - 1) == PAPER_SEARCH and MANY_SEARCH.budget * MANY_SEARCH.runs < PAPER_SEARCH.budget
+    assert Search.for_steps(MANY_STEPS - 1) == PAPER_SEARCH and MANY_SEARCH.budget * MANY_SEARCH.runs < PAPER_SEARCH.budget
 
 
 @pytest.mark.parametrize("recs", [recordings(1, 2 * MANY_STEPS), recordings(3, 501), []], ids=["one long", "short joint", "each"])
@@ -40,5 +43,36 @@ def test_a_given_flag_wins_and_the_rest_follow_the_size():
     assert chosen(["--runs", "3"], many) == (MANY_SEARCH.method, 3, MANY_SEARCH.budget, "DEBest1Bin")
     assert chosen(["--method", "tlbo", "--generations", "5"], many)[:3] == ("tlbo", MANY_SEARCH.runs, MANY_SEARCH.budget)
     args = _parser().parse_args(["fit", "a.csv", "--generations", "5"])
-    assert _search(args, many)["method"].generations == 5
+    assert _search(args, many).generations == 5
     assert chosen(["--budget", "900"], recordings(2, 100)) == (PAPER_SEARCH.method, PAPER_SEARCH.runs, 900, "DERand1Exp")
+
+
+def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
+    """`dcjax.fit(search=None)` of a joint fit of many samples runs `Search.many()` and records it;
+    `runs=`, `budget=`, ... of 0.3 warn and give the bits of the `Search` they spell."""
+    many = [r.replace(u_a=np.linspace(0, 1, len(r)), i_a=np.linspace(0, 2, len(r)), omega=np.linspace(0, 3, len(r)))
+            for r in recordings(4, MANY_STEPS // 4)]  # fmt: skip
+    plan = dcjax.fitting.setup.plan  # what fit hands the engine, without running it
+    seen = {}
+
+    def spy(p, setups, progress=None):
+        seen["search"] = p.search
+        raise RuntimeError("stop here")
+
+    import dcjax.fitting.fit as fit_module
+
+    original = fit_module.fit_setups
+    fit_module.fit_setups = spy
+    try:
+        with pytest.raises(RuntimeError, match="stop here"):
+            dcjax.fit(many, params="table4")
+    finally:
+        fit_module.fit_setups = original
+    assert seen["search"] == Search.many() and plan is dcjax.fitting.setup.plan
+    sd1 = dcjax.datasets.load("SD1").select(slice(0, 201))
+    with pytest.warns(DeprecationWarning, match=r"fit's runs=, budget= is deprecated since dcjax 0.4; use search=dcjax.Search"):
+        old = dcjax.fit(sd1, params="table4", runs=1, budget=700)
+    new = dcjax.fit(sd1, params="table4", search=Search(runs=1, budget=700))
+    np.testing.assert_array_equal(old.run_params, new.run_params)
+    with pytest.raises(ValueError, match="unknown argument"):
+        dcjax.fit(sd1, params="table4", rums=1)

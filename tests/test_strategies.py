@@ -224,5 +224,5 @@ def test_bad_strategy_options():
 def test_cma_es_is_a_named_method_with_its_own_population(sd1):
     s = make_strategy("cma-es")
     assert type(s).__name__ == "Evosax" and s.name == "CMA_ES" and s.pop_size == 12 and make_strategy("CMA_ES").pop_size == 70
-    r = dcjax.fit(sd1, params="table4", method="cma-es", runs=1, budget=700)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search("cma-es", runs=1, budget=700))
     assert r.settings["method"] == "CMA_ES" and np.isfinite(r.of) and int(r.fes[0]) <= 700

@@ -77,7 +77,7 @@ def test_profile_likelihood_minimum_at_fit():
 
 @pytest.mark.slow
 def test_result_uncertainty_method(sd1):
-    r = dcjax.fit(sd1, params="table4", runs=2, budget=7000, seed=0, polish=True)
+    r = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=2, budget=7000, seed=0, polish=True))
     r2 = r.uncertainty(profile="Ra", profile_points=3)
     u = r2.uncertainties
     assert r.uncertainties is None and r2.params["Ra"].stderr == u.se["Ra"] and r.params["Ra"].stderr is None
@@ -95,18 +95,18 @@ def _voltage_recording(u_volts, name):
 @pytest.mark.slow
 def test_joint_fit_recovers_shared_parameters():
     recs = [_voltage_recording(v, f"U{v}") for v in (220.0, 150.0, 90.0)]
-    r = dcjax.fit(recs, params="table4", runs=2, seed=0)
+    r = dcjax.fit(recs, params="table4", search=dcjax.Search(runs=2, seed=0))
     assert r.of <= 1e-15
     for k, n in enumerate(NAMES):
         assert abs(r.params[n] - X_TRUE[k]) <= 1e-6 * X_TRUE[k], n
     assert r.settings["recording"] == ["U220.0", "U150.0", "U90.0"]
     # Weighted: all weight on one recording equals fitting it alone (same seed).
     weighted = [dcjax.with_weights(r, joint_weight=w) for r, w in zip(recs, (1.0, 0.0, 0.0))]
-    only = dcjax.fit(weighted, params="table4", runs=1, budget=1400, seed=0)
-    alone = dcjax.fit(recs[0], params="table4", runs=1, budget=1400, seed=0)
+    only = dcjax.fit(weighted, params="table4", search=dcjax.Search(runs=1, budget=1400, seed=0))
+    alone = dcjax.fit(recs[0], params="table4", search=dcjax.Search(runs=1, budget=1400, seed=0))
     np.testing.assert_allclose(only.run_of, alone.run_of, rtol=1e-12)
     with pytest.raises(ValueError, match="joint weights must be non-negative"):
-        dcjax.fit([dcjax.with_weights(r, joint_weight=-1.0) for r in recs], params="table4", runs=1, budget=70)
+        dcjax.fit([dcjax.with_weights(r, joint_weight=-1.0) for r in recs], params="table4", search=dcjax.Search(runs=1, budget=70))
 
 
 @pytest.mark.slow
@@ -115,14 +115,19 @@ def test_nd_auto_picks_the_first_nd_within_tolerance_of_a_diffrax_reference():
     ~16 per doubling (4th order); with tol 1e-9 the first ND below it is chosen and refitted."""
     rec = datasets.load("SD1")
     r = dcjax.fit(
-        rec, params="table4", integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-9, max_substeps=16), runs=2, seed=0, budget=70_000
+        rec,
+        params="table4",
+        integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-9, max_substeps=16),
+        search=dcjax.Search(runs=2, budget=70_000, seed=0),
     )
     auto = r.settings["nd_auto"]
     errs = [auto["errors_at_nd1_fit"][str(k)] for k in (1, 2, 4, 8, 16)]
     assert all(10 < a / b < 25 for a, b in zip(errs[:3], errs[1:4])), errs
     chosen = next(k for k, e in zip((1, 2, 4, 8, 16), errs) if e <= 1e-9)
     assert auto["chosen"] == chosen == r.settings["nd"] and auto["converged"] and auto["reference_error"] <= 1e-9
-    loose = dcjax.fit(rec, params="table4", integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-3), runs=1, seed=0, budget=7_000)
+    loose = dcjax.fit(
+        rec, params="table4", integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-3), search=dcjax.Search(runs=1, budget=7_000, seed=0)
+    )
     assert loose.settings["nd_auto"]["chosen"] == 1
 
 

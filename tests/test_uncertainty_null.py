@@ -23,8 +23,7 @@ def speed_only():
 @pytest.mark.slow
 def test_no_interval_inside_the_symmetry_and_the_combinations_match_the_truth(speed_only):
     rec, truth = speed_only
-    res = dcjax.fit(rec, params="table4", integrator=dcjax.RK4(substeps=8), observation=dcjax.Observation(measure=("omega",)),
-                    runs=2, budget=40_000, polish=True)  # fmt: skip
+    res = dcjax.fit(rec, params="table4", integrator=dcjax.RK4(substeps=8), observation=dcjax.Observation(measure=("omega",)), search=dcjax.Search(runs=2, budget=40_000, polish=True))  # fmt: skip
     u = res.uncertainty().uncertainties
     assert set(u.null_names) == set(SCALED)
     for n in SCALED:

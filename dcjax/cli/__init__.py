@@ -24,7 +24,7 @@ def fit(args) -> int:
     model = options["observation"].check(model).observed(model)  # --measure: the compared states
     args.data = drop_sidecars(args.data)
     if args.each:
-        return fit_each_cmd(args, model, options | _search(args))
+        return fit_each_cmd(args, model, options | {"search": _search(args)})
     return fit_one(args, model, options)
 
 

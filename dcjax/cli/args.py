@@ -224,7 +224,7 @@ def _add_saved_parsers(sub) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from ..fitting.defaults import MANY_SEARCH, MANY_STEPS, PAPER_SEARCH
+    from ..fitting.search import MANY_STEPS, Search
     from ..models import MODELS
     from ..simulation.integrators import INTEGRATORS
     from ..strategies import METHODS
@@ -245,6 +245,7 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument(
         "--model", default="dc", help=f"{', '.join(MODELS)} (built in; dc the default), package.module:attr or path/to/file.py:Name"
     )
+    PAPER_SEARCH, MANY_SEARCH = Search.paper(), Search.many()
     f.add_argument("--method", default=None, help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...); default "
                    f"{PAPER_SEARCH.method}, and {MANY_SEARCH.method} for a joint fit of >= {MANY_STEPS:,} samples (many recordings)")  # fmt: skip
     f.add_argument(

@@ -97,7 +97,6 @@ def _options(args, model) -> dict:
     from ..models import DiscreteModel
     from ..simulation.integrators import INTEGRATORS, AutoSubsteps
     from ..simulation.losses import get_loss
-    from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
     if isinstance(model, DiscreteModel):
@@ -118,28 +117,24 @@ def _options(args, model) -> dict:
                               _names(args.offset, "--offset"), _names(args.delay, "--delay"),
                               None if args.measure is None else _names(args.measure, "--measure"),
                               parse_mapping(args.hold, "--hold"))  # fmt: skip
-    return dict(integrator=integrator, seed=args.seed, memory=None if args.memory is None else MEMORIES[args.memory], polish=args.polish,
-                observation=observation)  # fmt: skip
+    return dict(integrator=integrator, observation=observation)
 
 
-def _search(args, recs=()) -> dict:
-    """`fit`'s method (a strategy, with --generations), runs and budget: as given, else the
-    defaults for a fit of `recs` (`dcjax.fitting.defaults.search_defaults`: a joint fit of many
-    recordings searches shorter; `--each` and one recording: the paper's). The namespace gets the
-    values, so the command's report shows them."""
-    from ..fitting.defaults import search_defaults
-    from ..strategies import make_strategy
+def _search(args, recs=()):
+    """The `Search` of the command: --method (with --generations), --runs, --budget, --seed,
+    --memory, --polish as given, else the default for a fit of `recs` (`Search.for_steps`: a joint
+    fit of many recordings searches shorter; `--each` and one recording: the paper's). The
+    namespace gets the values, so the command's report shows them."""
+    from ..fitting.search import Search
+    from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
-    steps = sum(len(r.t) for r in recs) * (nd if isinstance(nd, int) else 1) if len(recs) > 1 else 0
-    chosen = search_defaults(steps)
-    args.method = chosen.method if args.method is None else args.method
+    chosen = Search.for_steps(sum(len(r.t) for r in recs) * (nd if isinstance(nd, int) else 1) if len(recs) > 1 else 0)
+    args.method = chosen.name if args.method is None else args.method
     args.runs = chosen.runs if args.runs is None else args.runs
     args.budget = chosen.budget if args.budget is None else args.budget
-    strategy = make_strategy(args.method)
-    if args.generations is not None:
-        strategy = dataclasses.replace(strategy, generations=args.generations)
-    return dict(method=strategy, runs=args.runs, budget=args.budget)
+    search = Search(args.method, args.runs, args.budget, args.seed, None if args.memory is None else MEMORIES[args.memory], args.polish)
+    return search if args.generations is None else search.with_generations(args.generations)
 
 
 def _precision(args, model) -> dict[str, float]:
@@ -337,7 +332,7 @@ def fit_one(args, model, options) -> int:
     with output_folder(args, fit_products, "an earlier fit's result.json") as folder:
         out = folder.path
         recs = [_load(d, args, model) for d in args.data]
-        options |= _search(args, recs)
+        options["search"] = _search(args, recs)
         result = _fit_one(recs, args, model, options, sys.stderr.isatty() if args.progress is None else args.progress)
         failed = _no_finite_candidate(result)
         if failed:

@@ -9,7 +9,8 @@ from .each import fit_each
 from .observation import Observation
 from .restore import load_result
 from .result import FailedFit, FitResult
-from .setup import Plan, Search, Setup, with_weights
+from .search import Search
+from .setup import Plan, Setup, with_weights
 
 __all__ = [
     "FailedFit",

@@ -15,7 +15,8 @@ from ..simulation.integrators import AutoSubsteps, integrator_spec
 from ..simulation.joint import stacked_target
 from .result import FitResult
 from .runs import run_setups
-from .setup import Plan, Search, Setup
+from .search import Search
+from .setup import Plan, Setup
 from .vector import base_name
 
 
@@ -161,7 +162,7 @@ def settings_of(setup: Setup, search: Search) -> dict:
             "data": [_source(r) for r in recs],
             "model": model_spec(model),
             "joint_weights": setup.joint_weights if weighted else None,
-            "method": search.method,
+            "method": search.name,
             "integrator": integrator_spec(setup.integrator),
             "nd": setup.integrator.substeps,
             "weights": [float(w) for w in (setup.weights if setup.weights is not None else [1.0] * len(model.outputs))],

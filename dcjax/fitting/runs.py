@@ -46,7 +46,8 @@ from ..simulation.joint import (
 from ..simulation.kernel import kernel_mode
 from ..strategies.base import BatchProgram, FitnessFn, batch_program
 from .runner import ExecutableCache, mesh_of, padded_size, replicate, shard, to_host
-from .setup import Search, Setup
+from .search import Search
+from .setup import Setup
 
 # The last few executables by (strategy, settings, argument shapes): consecutive cells of a sweep
 # (other weights, bounds or recordings of equal length) reuse them.

@@ -18,55 +18,10 @@ from ..models.precision import physical_precision
 from ..models.space import Space, vector_space
 from ..simulation.integrators import AutoSubsteps, Integrator, integrator_for
 from ..simulation.joint import JointProblem, Layout
-from ..simulation.problem import Problem, check_positive_int, make_problem
-from ..strategies import METHODS, Strategy, make_strategy
-from ..strategies.memory import MemoryAssistance
+from ..simulation.problem import Problem, make_problem
 from .observation import Observation
+from .search import Search
 from .vector import base_name, resolve_parameters, search_vector, start_rows
-
-
-@dataclasses.dataclass(frozen=True)
-class Search:
-    """How a fit searches: `runs` independent runs of `strategy` of at most `budget` FEs each (and
-    at most `strategy.generations` iterations), keyed from `seed`, with an optional `memory` and
-    Levenberg–Marquardt `polish`."""
-
-    strategy: Strategy
-    memory: MemoryAssistance | None = None
-    runs: int = 50
-    budget: int = 140_000
-    seed: int = 0
-    polish: bool = False
-
-    def __post_init__(self):
-        if not isinstance(self.strategy, Strategy):
-            raise ConfigError(f"method must be a strategy name or a dcjax Strategy, got {self.strategy!r}")
-        for name in ("runs", "budget"):
-            check_positive_int(name, getattr(self, name))
-        check_positive_int("pop_size", self.strategy.pop_size)
-        if self.strategy.generations is not None:
-            check_positive_int("generations", self.strategy.generations)
-        if self.budget < self.strategy.pop_size:
-            raise ConfigError(f"budget ({self.budget}) must be at least one population ({self.strategy.pop_size})")
-        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool):
-            raise ConfigError(f"seed must be an integer, got {self.seed!r}")
-        if self.memory is not None and not isinstance(self.memory, MemoryAssistance):
-            raise ConfigError(f"memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {self.memory!r}")
-        if not isinstance(self.polish, (bool, np.bool_)):
-            raise ConfigError(f"polish must be True or False, got {self.polish!r}")
-
-    @property
-    def generations(self) -> int | None:
-        return self.strategy.generations
-
-    @property
-    def method(self) -> str:
-        """The strategy's name: a built-in's registry name, an evosax algorithm's, else the class name."""
-        s = self.strategy
-        for name, cls in METHODS.items():
-            if type(s) is cls:
-                return name
-        return str(getattr(s, "name", "")) or type(s).__name__
 
 
 # -- what belongs to the recordings ----------------------------------------------------------------
@@ -211,25 +166,22 @@ class Plan:
 
 def plan(
     model=None,
-    method: "str | Strategy" = "de-rand-1-exp",
+    search: Search | None = None,
     *,
     observation: Observation | None = None,
     integrator: Integrator | AutoSubsteps | None = None,
-    runs: int = 50,
-    budget: int = 140_000,
-    seed: int = 0,
-    memory: MemoryAssistance | None = None,
-    polish: bool = False,
 ) -> Plan:
     """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others (one-line errors)."""
     if observation is None:
         observation = Observation()
     if not isinstance(observation, Observation):
         raise ConfigError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
+    search = Search() if search is None else search
+    if not isinstance(search, Search):
+        raise ConfigError(f"search must be a dcjax.Search(method=, runs=, budget=, seed=, memory=, polish=), got {search!r}")
     resolved = get_model(model)
     m = observation.check(resolved).observed(resolved)
-    search = Search(make_strategy(method) if not isinstance(method, Strategy) else method, memory, runs, budget, seed, polish)
-    if polish and not observation.loss.least_squares:
+    if search.polish and not observation.loss.least_squares:
         raise ConfigError(
             f"polish: Levenberg-Marquardt needs a least-squares loss (sse or huber); the {observation.loss.spec} loss has none"
         )

@@ -1,0 +1,114 @@
+"""How a fit searches, as one typed object (`Search`), and the search a fit gets where none is
+given (`Search.for_steps`): the paper's (DE/rand/1/exp, 50 runs of 140,000 FEs, `Search.paper()`)
+for a fit whose evaluation is short, and a shorter DE/best/1/bin search for a joint fit of many
+recordings (`Search.many()`), where the paper's would take hours (476 servo logs: 50 x 140,000
+evaluations of 1.1 ms). Chosen at equal wall time on 476 servo logs, 128 DC recordings and the
+real EMPS axis: `python -m experiments.bench_many` (`experiments/BENCHMARKS.md`)."""
+
+import dataclasses
+
+import numpy as np
+
+from ..deprecation import warn_deprecated
+from ..errors import ConfigError
+from ..strategies import METHODS, Strategy, make_strategy
+from ..strategies.memory import MemoryAssistance
+
+MANY_STEPS = 50_000  # integration steps of one evaluation from which a fit is "of many recordings" (100 of 500 samples)
+LEGACY = ("method", "runs", "budget", "seed", "memory", "polish")  # fit's keywords of 0.2/0.3, now Search's fields
+
+
+def _positive_int(name: str, v) -> None:
+    if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
+        raise ConfigError(f"Search.{name} must be a positive integer, got {v!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Search:
+    """`runs` independent runs of `method` (a strategy name, `dcjax.strategies.METHODS`, an
+    evosax algorithm's name, or a `Strategy` carrying its own settings) of at most `budget` FEs
+    each (and at most the strategy's `generations` iterations), run r keyed by
+    `fold_in(PRNGKey(seed), r)`, with an optional `memory` (`dcjax.STMA()`, `LTMA(...)`,
+    `IndexedLTMA()`, paper Section 4.4) and a Levenberg–Marquardt `polish` of every run."""
+
+    method: "str | Strategy" = "de-rand-1-exp"
+    runs: int = 50
+    budget: int = 140_000
+    seed: int = 0
+    memory: MemoryAssistance | None = None
+    polish: bool = False
+    strategy: Strategy = dataclasses.field(init=False, repr=False, compare=False)  # `method` resolved
+
+    def __post_init__(self):
+        if not isinstance(self.method, (str, Strategy)):
+            raise ConfigError(f"Search.method must be a strategy name or a dcjax Strategy, got {self.method!r}")
+        object.__setattr__(self, "strategy", self.method if isinstance(self.method, Strategy) else make_strategy(self.method))
+        for name in ("runs", "budget"):
+            _positive_int(name, getattr(self, name))
+        _positive_int("method's pop_size", self.strategy.pop_size)
+        if self.strategy.generations is not None:
+            _positive_int("method's generations", self.strategy.generations)
+        if self.budget < self.strategy.pop_size:
+            raise ConfigError(f"Search.budget ({self.budget}) must be at least one population ({self.strategy.pop_size})")
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool):
+            raise ConfigError(f"Search.seed must be an integer, got {self.seed!r}")
+        if self.memory is not None and not isinstance(self.memory, MemoryAssistance):
+            raise ConfigError(
+                f"Search.memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {self.memory!r}"
+            )
+        if not isinstance(self.polish, (bool, np.bool_)):
+            raise ConfigError(f"Search.polish must be True or False, got {self.polish!r}")
+
+    @classmethod
+    def paper(cls, **changes) -> "Search":
+        """The paper's comparison setting: DE/rand/1/exp, 50 runs of 140,000 FEs (Section 3.1)."""
+        return cls(**changes)
+
+    @classmethod
+    def many(cls, **changes) -> "Search":
+        """The default of a joint fit of many recordings: DE/best/1/bin, 2 runs of 20,000 FEs."""
+        return cls(**{"method": "de-best-1-bin", "runs": 2, "budget": 20_000, **changes})
+
+    @classmethod
+    def for_steps(cls, steps: int) -> "Search":
+        """The default of a fit whose one evaluation integrates `steps` steps (a joint fit's
+        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else `paper()`."""
+        return cls.many() if steps >= MANY_STEPS else cls.paper()
+
+    @property
+    def generations(self) -> int | None:
+        return self.strategy.generations
+
+    @property
+    def name(self) -> str:
+        """The strategy's name: a built-in's registry name, an evosax algorithm's, else the class name."""
+        s = self.strategy
+        for name, cls in METHODS.items():
+            if type(s) is cls:
+                return name
+        return str(getattr(s, "name", "")) or type(s).__name__
+
+    def with_generations(self, generations: int | None) -> "Search":
+        """The same search with the strategy's iterations limited to `generations`."""
+        return dataclasses.replace(self, method=dataclasses.replace(self.strategy, generations=generations))
+
+
+def search_of(search: "Search | None", legacy: dict, default: "Search") -> Search:
+    """`search` (None: `default`) with the 0.2/0.3 keywords of `fit`/`fit_each` (`method`, `runs`,
+    `budget`, `seed`, `memory`, `polish`) over it, each with a `DeprecationWarning`; any other
+    keyword is a one-line error."""
+    unknown = [k for k in legacy if k not in LEGACY]
+    if unknown:
+        raise ConfigError(
+            f"unknown argument(s) {', '.join(unknown)}; fit takes data, model, params, search, observation, integrator, progress"
+        )
+    if search is not None and not isinstance(search, Search):
+        raise ConfigError(f"search must be a dcjax.Search(method=, runs=, budget=, seed=, memory=, polish=), got {search!r}")
+    if not legacy:
+        return search if search is not None else default
+    warn_deprecated(f"fit's {', '.join(f'{k}=' for k in legacy)}", f"search=dcjax.Search({', '.join(f'{k}=...' for k in legacy)})",
+                    stacklevel=4, since="0.4")  # fmt: skip
+    return dataclasses.replace(search if search is not None else default, **legacy)
+
+
+__all__ = ["LEGACY", "MANY_STEPS", "Search", "search_of"]

@@ -31,8 +31,8 @@ dcjax.use_compiled_loops()
 if sys.argv[1].startswith("servo,"):  # the data: bench_servo_fleet's logs, as bench_many fits them
     from experiments.bench_many import servo_case
     case = servo_case()
-    res = dcjax.fit(case["data"], case["model"], case["params"], sys.argv[1].split(",")[1], runs=int(sys.argv[2]),
-                    budget=int(sys.argv[3]) // 7, observation=case["observation"])
+    res = dcjax.fit(case["data"], case["model"], case["params"], dcjax.Search(sys.argv[1].split(",")[1], runs=int(sys.argv[2]),
+                    budget=int(sys.argv[3]) // 7), observation=case["observation"])
     print(json.dumps({"compile_s": res.timing["compile_s"]}))
 else:
     from experiments.bench_joint import child

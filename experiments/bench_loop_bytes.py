@@ -40,7 +40,7 @@ def median(f, *a):
 
 out = {}
 sd1 = dcjax.datasets.load("SD1")
-out["SD1 DE run, s"] = dcjax.fit(sd1, params="table4", runs=1, budget=140_000, seed=0).timing["run_s"]
+out["SD1 DE run, s"] = dcjax.fit(sd1, params="table4", search=dcjax.Search(runs=1, budget=140_000, seed=0)).timing["run_s"]
 truth = sd1.metadata["true_params"]
 probs = []
 for k in range(16):

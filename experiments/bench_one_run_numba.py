@@ -7,7 +7,7 @@ one population objective, eq. 8-9 by RK4 with eq. 29's interpolated voltage (1/L
 eq. 24 summed in the time loop, time outside and the members inside (the inner loop runs over
 contiguous member arrays, which LLVM vectorises); in parallel, a `prange` over one contiguous
 chunk of members per thread, each chunk's time loop outside its members (one parallel region per
-generation: a region per time step, 2,000 x 500 of them, costs more than it saves). dcjax: `dcjax.fit(SD1, params="table4", runs=1)` with compiled loops, its
+generation: a region per time step, 2,000 x 500 of them, costs more than it saves). dcjax: `dcjax.fit(SD1, params="table4", search=dcjax.Search(runs=1))` with compiled loops, its
 `timing["run_s"]` (the compiled run, no compilation). Each figure is the median of `--repeat`
 runs (seeds 0..), after one warm-up run; all in one process.
 

@@ -18,7 +18,8 @@ import pytest
 
 import dcjax
 from dcjax import cli, datasets
-from dcjax.io.files import OutputFolder, safe_name, strict_json
+from dcjax.cli.output import OutputFolder
+from dcjax.io.files import safe_name, strict_json
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ["--bounds", "table4", "--runs", "1", "--budget", "140", "--plots", "none"]
@@ -143,7 +144,7 @@ def test_a_unit_no_flag_converts_is_named(tmp_path):
     rows = _rows(200)
     f = _table(tmp_path / "rpm.csv", "t,u_a,i_a,speed_rpm", rows)
     with pytest.warns(
-        UserWarning, match=r"column 'speed_rpm' \(omega\) is in rpm by its header, but read as rad/s: units=/--units omega=rpm"
+        UserWarning, match=r"column 'speed_rpm' \(omega\) is in rpm by its header, but read as rad/s: units=\{'omega': 'rpm'\} converts it"
     ):
         dcjax.load_recording(f, columns={"omega": "speed_rpm"})
     f = _table(tmp_path / "line.csv", "t,u_a,i_a,omega,temp", [r + ["21.5"] for r in rows], units="ms,V,mA,rpm,degC")
@@ -491,3 +492,19 @@ def test_random_damage_to_a_table_reads_every_row_or_names_the_line(tmp_path):
             continue
         got = np.column_stack([rec.t, rec.u_a, rec.i_a, rec.omega])
         np.testing.assert_array_equal(got, want, err_msg=f"kind {kind} at line {at + 1}")
+
+
+def test_the_command_line_shows_its_flags_where_the_library_names_its_arguments(tmp_path, capsys):
+    """A library message names Python arguments (`units={'omega': 'rpm'}`); the command line
+    prints its own flags (`dcjax.cli.flags.as_flags`, one table)."""
+    from dcjax.cli.flags import as_flags
+
+    assert as_flags("units={'omega': 'rpm'} converts it") == "--units omega=rpm converts it"
+    assert as_flags("drop_nan=True drops such rows; give params['y0_omega'].set(min=LO, max=HI)") == (
+        "--drop-nan drops such rows; give --bound y0_omega=LO:HI"
+    )
+    assert as_flags("constants={'k': V}, dt= or rate=; initial={'iq': 'measured'}") == "--const k=V, --dt or --rate; --initial iq=measured"
+    f = _table(tmp_path / "rpm.csv", "t,u_a,i_a,speed_rpm", _rows(200))
+    assert cli.main(["fit", str(f), "--columns", "omega=speed_rpm", "--fix", "La=0", *TINY, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "--units omega=rpm converts it" in err and "units={" not in err

@@ -314,7 +314,7 @@ def test_a_large_joint_fit_splits_each_runs_recordings_over_its_devices():
         "recs = [datasets.load(n) for n in ('SD1', 'SD2', 'SD3', 'SD4')];"
         "recs.append(recs[0].replace(name='SD1-again', channels={c: 1.01 * v for c, v in recs[0].channels.items()}));"
         "seen = [0.0];"
-        "fit = lambda runs, **kw: dcjax.fit(recs, params='table4', method='cma-es', runs=runs, budget=1200, seed=2, **kw);"
+        "fit = lambda runs, **kw: dcjax.fit(recs, params='table4', search=dcjax.Search('cma-es', runs=runs, budget=1200, seed=2), **kw);"
         "R.SPLIT_STEPS = 0; a, again, c = fit(1), fit(1), fit(2, progress=seen.append); R.SPLIT_STEPS = 1 << 62; b, d = fit(1), fit(2);"
         "out = lambda r: [list(map(float, r.run_of)), np.asarray(r.run_params).tolist()];"
         "print(json.dumps({'devices': [r.timing['devices'] for r in (a, c, b, d)], 'runs': [out(r) for r in (a, again, b, c, d)],"

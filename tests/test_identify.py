@@ -78,7 +78,7 @@ def test_sharded_runs_equal_single_device(tmp_path):
     """The same call with 1 and 2 XLA CPU devices gives identical results (3 runs: padded)."""
     code = (
         "import sys, json, dcjax; from dcjax import datasets;"
-        "r = dcjax.fit(datasets.load('SD1'), params='table4', runs=3, budget=2100, seed=2);"
+        "r = dcjax.fit(datasets.load('SD1'), params='table4', search=dcjax.Search(runs=3, budget=2100, seed=2));"
         "print(json.dumps({'of': r.run_of.tolist(), 'x': r.run_params.tolist(), 'dev': r.timing['devices']}))"
     )
     outs = {}

@@ -77,7 +77,7 @@ def test_a_noisy_pmsm_fit_is_within_two_standard_errors_by_default():
     """The issue's case: with the first noisy samples as initial states, parameters lie several
     standard errors from the truth; the default (fitted starts) puts every one within 2."""
     recs = recordings(0.005)
-    opts = dict(integrator=dcjax.RK4(substeps=8), runs=1, budget=14_000, polish=True, seed=0)
+    opts = dict(integrator=dcjax.RK4(substeps=8), search=dcjax.Search(runs=1, budget=14_000, polish=True, seed=0))
     errors = {}
     for tag, obs in (("default", None), ("measured", dcjax.Observation(initial={s: "measured" for s in ("id", "iq", "omega")}))):
         res = dcjax.fit(recs, "pmsm", observation=obs, **opts)

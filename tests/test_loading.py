@@ -180,7 +180,7 @@ def test_a_loggers_file_reads_with_flags_and_no_editing(tmp_path, sd1):
     write_logger(tmp_path / "step1.csv", rec, holes={40: 2, 41: 3, 300: 2})
     cols = {"t": "time", "u_a": "voltage", "i_a": "current", "omega": "speed"}
     with pytest.raises(
-        ValueError, match=r"step1.csv: line 43: i_a is NaN \(a missing or non-finite field; 3 rows in all; .*--drop-nan drops such rows\)"
+        ValueError, match=r"step1.csv: line 43: i_a is NaN \(a missing or non-finite field; 3 rows in all; drop_nan=True drops such rows\)"
     ):
         load_recording(tmp_path / "step1.csv", columns=cols)
     with pytest.warns(UserWarning, match=rf"step1.csv: dropped 3 of {len(sd1)} rows with NaN/inf \(in i_a, omega\)"):

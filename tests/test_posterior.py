@@ -230,7 +230,7 @@ def test_chains_split_over_two_devices():
         "y = y + 0.01 * np.abs(y).max(axis=0) * np.random.default_rng(0).standard_normal(y.shape);"
         "rec = dcjax.Recording(t=s.t[:n], u_a=s['u_a'][:n], i_a=y[:, 0], omega=y[:, 1], name='SD1-200');"
         "obs = dcjax.Observation(initial={'i_a': 'measured', 'omega': 'measured'});"
-        "r = dcjax.fit(rec, params='table4', runs=1, budget=1400, polish=True, observation=obs);"
+        "r = dcjax.fit(rec, params='table4', search=dcjax.Search(runs=1, budget=1400, polish=True), observation=obs);"
         "a, again = (r.sample(draws=40, chains=4, warmup=40, seed=3) for _ in range(2)); m = P.chain_mesh(4); P.chain_mesh = lambda c: None;"
         "b = r.sample(draws=40, chains=4, warmup=40, seed=3); d = np.abs(a.draws - b.draws) / np.abs(b.draws).max(axis=(0, 1));"
         "print(json.dumps({'devices': m.devices.size, 'again': bool(np.array_equal(a.draws, again.draws)), 'off': float(d.max())}))"

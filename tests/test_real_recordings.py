@@ -257,11 +257,12 @@ def test_fit_typed_options(sd1):
     assert w.settings["weights"] == [1.0, 0.5]
     for kw, match in (
         ({"integrator": "rk4"}, "integrator must be"),
-        ({"memory": "stma"}, "memory must be"),
         ({"params": 3}, "params must be"),
     ):
         with pytest.raises(ValueError, match=match):
             dcjax.fit(sd1, **kw, search=dcjax.Search(runs=1, budget=1400))
+    with pytest.raises(ValueError, match="Search.memory must be"):
+        dcjax.Search(runs=1, budget=1400, memory="stma")  # pyright: ignore[reportArgumentType]
     bad = dcjax.DC().parameters()
     bad["Ra"].set(min=5.0, max=1.0)
     with pytest.raises(ValueError, match="min 5 is above max 1"):

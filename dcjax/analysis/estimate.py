@@ -439,7 +439,7 @@ def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | 
     bad = [n for n, a, b in zip(m.names, lo, hi) if not (math.isfinite(a) and math.isfinite(b))]
     if bad:
         raise ConfigError(
-            f"bounds auto: no range for {', '.join(bad)} (not seen by the regression and model {m.name} has no preset); give them with --bound/bounds"
+            f"bounds auto: no range for {', '.join(bad)} (not seen by the regression and model {m.name} has no preset); give them: params[NAME].set(min=LO, max=HI)"
         )
     start = {n: v for n, v in ests[0].start.items() if lo[m.names.index(n)] <= v <= hi[m.names.index(n)]}
     return Bounds(lo, hi, m.names), start, ests

@@ -93,7 +93,7 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
             text += f"  ({recs[k]})" if k < len(recs) else ""
         lines.append(text)
     if u is None:
-        lines.append("    (standard errors: call result.uncertainty(), dcjax fit --uncertainty or dcjax report RESULT.json --uncertainty)")
+        lines.append("    (standard errors: result.uncertainty())")
     else:
         lines += [f"    {line}" for line in u.combination_lines()]
         if getattr(u, "approximation", ""):
@@ -103,7 +103,7 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
         lines += [f"    C({a}, {b}) = {c:+.4f}" for a, b, c in pairs] or ["    none"]
     if posterior is not None:
         lin = None if u is None else u.intervals(posterior.names)  # pyright: ignore[reportAttributeAccessIssue]
-        lines.append("[[Posterior]]" + ("" if u is not None else " (linearised intervals: add --uncertainty)"))
+        lines.append("[[Posterior]]" + ("" if u is not None else " (linearised intervals: result.uncertainty())"))
         lines += [f"    {line}" for line in posterior.table(lin).splitlines()]
     derived = m.derived(result.values(0) if hasattr(result, "values") else result.best_values)  # a local one: the first recording's
     if derived:

@@ -9,6 +9,7 @@ from .args import _parser
 from .design import design_cmd
 from .each import fit_each_cmd
 from .fitting import _options, _search, bound_hints, fit_one
+from .flags import as_flags
 from .output import drop_sidecars
 from .saved import report_cmd, sample_cmd, simulate_cmd, validate_cmd
 
@@ -61,7 +62,7 @@ def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes stdout
             return 0
         except (DcjaxError, OSError) as e:  # dcjax's one-line errors, and the system's (a file, a folder)
-            print(f"dcjax: error: {e}", file=sys.stderr)
+            print(f"dcjax: error: {as_flags(str(e))}", file=sys.stderr)
             return 2
         except Exception as e:  # never a traceback from the command line
             print(f"dcjax: error: {type(e).__name__}: {(str(e).splitlines() or [''])[0]}", file=sys.stderr)
@@ -69,7 +70,7 @@ def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
-    print(f"dcjax: warning: {message}", file=sys.stderr)
+    print(f"dcjax: warning: {as_flags(str(message))}", file=sys.stderr)
 
 
 class _Signal(Exception):

@@ -7,6 +7,7 @@ from pathlib import Path
 from ..errors import ConfigError
 from ..io.units import parse_mapping
 from .args import _floats, _named_floats, _named_ranges, _names
+from .flags import as_flags
 
 
 def reading_of(args):
@@ -266,7 +267,7 @@ def _print_fit(result, recs, args, model, out):
     from ..fitting.vector import base_name, unit_of
 
     for note in result.observation.notes(model, recs):
-        print(note)
+        print(as_flags(note))
     if not result.observation.plain:
         o = result.observation
         print(f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"

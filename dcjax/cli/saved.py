@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .fitting import _load
+from .flags import as_flags
 
 
 def _result(args):
@@ -169,5 +170,5 @@ def report_cmd(args) -> int:
             print(f"note: --posterior {path} was not sampled from this result.json", file=sys.stderr)
     if post is not None and not set(post.names) <= set(res.names):
         raise ConfigError(f"--posterior: {path} holds draws of {', '.join(post.names)}, not of this result's parameters")
-    print(res.report(posterior=post))
+    print(as_flags(res.report(posterior=post)))
     return 0

@@ -145,10 +145,10 @@ class Observation:
             level = f"{s}'s noise is {share[s]:.1e} of its range"
             if fits:
                 chosen[s] = (f"note: {level}: its initial value is fitted (y0_{s}, the first sample +- {START_SPREAD:g} noise sd); "
-                             f"--initial {s}=measured starts at the first sample")  # fmt: skip
+                             f"initial={{{s!r}: 'measured'}} starts at the first sample")  # fmt: skip
             else:
                 chosen[s] = (f"note: {level}, but it starts at its first sample ({count} initial values > {MAX_FITTED_STARTS}), "
-                             f"which biases the fit by about its noise; --initial {s}=fit fits it")  # fmt: skip
+                             f"which biases the fit by about its noise; initial={{{s!r}: 'fit'}} fits it")  # fmt: skip
         initial = {**self.initial, **{s: "fit" for s in noisy}} if fits else dict(self.initial)
         return dataclasses.replace(self, initial=initial, chosen=chosen)
 
@@ -177,14 +177,16 @@ class Observation:
         out = list(self.chosen.values())
         for s in model.states:
             if s not in self.initial and any(self.spec_of(s, model, r) == 0.0 for r in recordings):
-                out.append(f"note: state {s} is neither measured nor given: it starts at 0 (--initial {s}=VALUE|derivative|fit)")
+                out.append(
+                    f"note: state {s} is neither measured nor given: it starts at 0 (initial={{{s!r}: VALUE}}, or 'derivative' or 'fit')"
+                )
             elif self.spec_of(s, model, recordings[0]) == "derivative":
                 src = model.derivative_of[s]
                 values = ", ".join(f"{derivative_at_start(r, src, s):.4g}" for r in recordings[:4]) + (
                     ", ..." if len(recordings) > 4 else ""
                 )
                 out.append(f"note: state {s} starts at the derivative of {src} at the first sample ({values}); from noisy samples "
-                           f"that is rough: --initial {s}=fit fits it, --initial {s}=0 if the recording starts at rest")  # fmt: skip
+                           f"that is rough: initial={{{s!r}: 'fit'}} fits it, initial={{{s!r}: 0}} if the recording starts at rest")  # fmt: skip
         return out
 
     def to_dict(self) -> dict:

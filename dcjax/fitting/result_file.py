@@ -3,7 +3,7 @@ uses and imports nothing.
 
 A result names its model and integrator by a string. Reading it resolves only dcjax's built-in
 names; a user's own model (`file.py:Name`, `module:attr`) or integrator is never imported on the
-file's word: the reader gets it from the caller (`load_result(path, model=...)`, `--model`) or
+file's word: the reader gets it from the caller (`load_result(path, model=...)`) or
 says so in one line. Numbers that a file could make huge (sub-steps, sizes) are bounded; a
 non-finite objective is `null` in the file (strict JSON) and +inf when read; an edited value
 that breaks the result (a NaN, a parameter outside its fitted range) is a one-line error
@@ -129,7 +129,7 @@ def model_name(record: Fields, builtin: Mapping) -> str:
     if spec.lower() in builtin:
         return spec.lower()
     raise ResultFileError(f"{record.path}: the result's model {spec!r} is not built in, and dcjax does not import code a result file "
-                          f"names: give the model yourself (load_result(path, model=...); the command line: --model {spec})")  # fmt: skip
+                          f"names: give it yourself as model={spec!r}")  # fmt: skip
 
 
 def integrator_name(record: Fields, builtin) -> str:

@@ -1,4 +1,4 @@
-"""The summary of a batch of fits (`fit_each`, `dcjax fit --each`): one row per recording,
+"""The summary of a batch of fits (`fit_each`, and the command line's fit of each file): one row per recording,
 robust outlier flags, `summary.csv` and `summary.png`."""
 
 import math

@@ -84,7 +84,9 @@ def default_extra(name: str, model: Model, recordings: list[Recording], observat
         top = max(float(np.max(np.abs(np.gradient(np.asarray(r[src], float), r.t)))) for r in recordings)
         top = max(top, abs(max(derivative_at_start(r, src, state) for r in recordings)), 1e-12)
         return Parameter(name, value=None, min=-1.5 * top, max=1.5 * top, unit=unit)
-    raise ConfigError(f"initial: {state}=fit needs a range: state {state} is not measured; give it, e.g. --bound {name}=LOWER:UPPER")
+    raise ConfigError(
+        f"initial: {state}=fit needs a range: state {state} is not measured; give it, e.g. params[{name!r}].set(min=LO, max=HI)"
+    )
 
 
 def search_vector(model: Model, recordings: list[Recording], params: Parameters, extras: Parameters, observation: Observation):
@@ -95,7 +97,7 @@ def search_vector(model: Model, recordings: list[Recording], params: Parameters,
     known = set(extra_names(model, observation))
     bad = [n for n in extras if n not in known]
     if bad:
-        hint = ", ".join(sorted(known)) or "none (no --initial ...=fit, --offset or --delay)"
+        hint = ", ".join(sorted(known)) or "none (no initial={STATE: 'fit'}, offsets= or delays=)"
         raise ConfigError(f"unknown parameter(s) {', '.join(bad)} for model {model.name}; beyond its own the fit has {hint}")
     entries: list[Parameter] = []
     cols: dict[str, list[int]] = {}  # base name -> column per recording
@@ -226,7 +228,7 @@ def sidecar_preset(recordings: list[Recording], model: Model) -> str:
                          f"{', '.join(model.preset_names) or 'none'}, or auto")  # fmt: skip
     if len(named) > 1 or str(next(iter(named))).lower() not in (*model.preset_names, "auto"):
         warnings.warn(f"the sidecars' bounds {', '.join(sorted(map(str, named)))} {'differ' if len(named) > 1 else 'is no preset of model ' + model.name}: "
-                      "auto bounds (bounds=/--bounds names a preset)", stacklevel=3)  # fmt: skip
+                      "auto bounds (params='PRESET' names one)", stacklevel=3)  # fmt: skip
         return "auto"
     return str(next(iter(named))).lower()
 

@@ -317,4 +317,4 @@ def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> None:
     at = f"line {int(table.lines[k])}" if table.lines.size else f"row {k}"
     raise DataError("nan", f"{where}: {at}: {c} is {'NaN' if np.isnan(chans[c][k]) else 'inf'} (a missing or non-finite field; "
                            f"{int(np.sum(~np.logical_and.reduce([np.isfinite(v) for v in chans.values()])))} rows in all; "
-                           "drop_nan=True / --drop-nan drops such rows)")  # fmt: skip
+                           "drop_nan=True drops such rows)")  # fmt: skip

@@ -83,7 +83,7 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
         if len(last) >= 2 and row_values(last, decimal) is not None and not _all_missing(last):
             return d
     raise DataError("cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or "
-                     "whitespace; give delimiter=/--delimiter")  # fmt: skip
+                     "whitespace; give delimiter=")  # fmt: skip
 
 
 def _tail_lines(path: Path) -> list[str]:
@@ -155,7 +155,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
         raise ConfigError("delimiter and decimal separator cannot both be ','")
     width = len(split_fields(tail[-1], delim))
     if width < 2:
-        raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+        raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check delimiter= and decimal=")
     above: deque[tuple[int, list[str] | None, bool]] = deque(
         maxlen=64
     )  # the last lines above the data: (line, text fields of its width, commented)
@@ -184,7 +184,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
             values.append(row)
             lines.append(lineno)
     if not values:
-        raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check --delimiter/--decimal")
+        raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check delimiter= and decimal=")
     header, units, units_line = _header(above, width)
     if len(set(header)) != len(header):
         raise DataError(f"{path}: repeated column names in the header {header}")

@@ -52,7 +52,7 @@ def unit_factor(channel: str, unit: str, quantity: str | None) -> float:
 
 
 def parse_mapping(text: str | None, what: str) -> dict[str, str]:
-    """`"a=x,b=y"` -> {"a": "x", "b": "y"} (CLI form of --columns, --units, --fix, --bound)."""
+    """`"a=x,b=y"` -> {"a": "x", "b": "y"} (the command line's NAME=VALUE lists)."""
     if not text:
         return {}
     out = {}
@@ -146,11 +146,11 @@ def select_channels(
         elif c in optional and c not in needed and c not in columns:
             continue
         else:
-            hint = " or give the sample time with dt/--dt or rate/--rate" if c == "t" else ""
+            hint = " or give the sample time with dt= or rate=" if c == "t" else ""
             if c in inputs:  # an input may be constant in a recording
-                hint = f"; or, as the model's inputs ({', '.join(inputs)}) may be, a constant: constants=/--const {c}=V or the sidecar's 'constants'"
+                hint = f"; or, as the model's inputs ({', '.join(inputs)}) may be, a constant: constants={{{c!r}: V}} or the sidecar's 'constants'"
             raise ColumnError(
-                f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns/--columns {c}=NAME{hint})"
+                f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns={{{c!r}: NAME}}{hint})"
             )
         factor = unit_factor(c, units[c], "time" if c == "t" else quantities.get(c)) if c in units else 1.0
         out[c] = np.asarray(col, dtype=np.float64) * factor * factors.get(c, 1.0)
@@ -178,7 +178,7 @@ def unconverted_units(headers: list[str], stated: dict[str, str], by: str, chans
         si = SI_UNITS.get(quantity or "", "SI")
         if not known_unit(unit):
             warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, which dcjax does not know: it is read "
-                          f"as {si}; convert it (units=/--units {c}=UNIT, scale=/--scale {c}=FACTOR) or check it", stacklevel=3)  # fmt: skip
+                          f"as {si}; convert it (units={{{c!r}: UNIT}}, scale={{{c!r}: FACTOR}}) or check it", stacklevel=3)  # fmt: skip
             continue
         try:
             factor = unit_factor(c, unit, quantity)
@@ -187,5 +187,5 @@ def unconverted_units(headers: list[str], stated: dict[str, str], by: str, chans
                           f"({', '.join(UNITS.get(quantity or '', {})) or si}): check the column mapping", stacklevel=3)  # fmt: skip
             continue
         if factor != 1.0:
-            warnings.warn(f"{where}: column {name!r} ({c}) is in {unit} by its {by}, but read as {si}: units=/--units {c}={unit} "
+            warnings.warn(f"{where}: column {name!r} ({c}) is in {unit} by its {by}, but read as {si}: units={{{c!r}: {unit!r}}} "
                           "converts it", stacklevel=3)  # fmt: skip

@@ -118,7 +118,7 @@ class Model(eqx.Module):
         return tuple(self.inputs) + self.outputs
 
     def measuring(self, channels) -> "Model":
-        """This model comparing only the states `channels` with a recording (`--measure omega`:
+        """This model comparing only the states `channels` with a recording (`Observation(measure=("omega",))`:
         the DC motor with its speed logged alone), as a subclass with `measured = channels` would
         (`class DCSpeed(dcjax.DC): measured = ("omega",)`); one class per model class and channels."""
         channels = (channels,) if isinstance(channels, str) else tuple(channels)

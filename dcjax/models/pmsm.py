@@ -7,7 +7,7 @@ motor (`dcjax.models.PMSM`, `--model pmsm`):
 
 with the mechanical speed omega (rad/s), the pole pairs `pp` and the load torque `Tl` inputs that
 are usually constant per recording (`Recording(constants={"pp": 4, "Tl": 0.02})`, a sidecar's
-`"constants"` or `--const pp=4,Tl=0.02`; a logged load torque is read as a column). Every
+`"constants"` or `constants={"pp": 4, "Tl": 0.02}`; a logged load torque is read as a column). Every
 parameter is positive; the equations are linear in them, so the first estimate is a regression.
 A recording's `limit` (A) clamps the current vector's magnitude after every sub-step."""
 

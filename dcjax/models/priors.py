@@ -1,4 +1,4 @@
-"""A parameter's prior for posterior sampling (`Parameter(prior=...)`, `dcjax sample --prior`).
+"""A parameter's prior for posterior sampling (`Parameter(prior=...)`, `dcjax sample`'s priors).
 
 Without one, a parameter's prior is uniform over its search range (log-uniform on a log scale).
 A `Prior` replaces that density inside the same range: the posterior's box stays the range, so

@@ -16,7 +16,7 @@ Per sample interval dt, from the position q and velocity dq:
 Parameters kt (Nm/A), R (Ohm), armature (kg m^2), friction_base Fc (Nm), friction_viscous Fv
 (Nm s/rad), all positive. Inputs: the goal position q_goal (rad, logged) and per recording the
 firmware gain kp, the supply voltage vin (V) and the pendulum's mass m (kg), length l (m) and arm
-mass m_a (kg) (`Recording(constants=...)`, a sidecar's "constants", `--const kp=32,vin=15,...`).
+mass m_a (kg) (`Recording(constants=...)`, a sidecar's "constants", the command line's constants).
 The firmware's error gain g_e (0.158 duty per firmware unit and rad) and largest duty d_max
 (0.9625) are the MX's, fields of the model (`Servo(error_gain=..., max_pwm=...)`). The position
 is measured; the velocity is its derivative (`derivative_of`)."""

@@ -128,5 +128,5 @@ def vector_space(
     bad = [f"{names[k]} (min {lo[k]:g})" for k in logs if not lo[k] > 0]
     if bad:
         raise ConfigError(f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
-                         "give one with bounds=/--bound NAME=LO:HI")  # fmt: skip
+                         f"give one: params[{names[logs[0]]!r}].set(min=LO, max=HI)")  # fmt: skip
     return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names), logs)

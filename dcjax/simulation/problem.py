@@ -128,7 +128,7 @@ def make_problem(
         raise ConfigError(
             f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has "
             f"{', '.join(recording.channels)}{consts} (the model's inputs {', '.join(model.inputs) or 'none'} may also be "
-            'constants: --const NAME=V or the sidecar\'s "constants")'
+            'constants: constants={NAME: V}, or the sidecar\'s "constants")'
         )
     t = recording.t
     u = np.stack([recording[c] for c in model.inputs], axis=1) if model.inputs else np.zeros((len(t), 0))

@@ -117,9 +117,9 @@ def __getattr__(name: str):
     """The 0.1 names (`dcjax.compat.DEPRECATED`), each with a `DeprecationWarning`."""
     if name not in _DEPRECATED:
         raise AttributeError(f"module 'dcjax' has no attribute {name!r}")
-    import importlib
+    import importlib  # a 0.1 name only: dcjax.compat is not imported otherwise
 
-    from .deprecation import warn_deprecated
+    from .deprecation import warn_deprecated  # a 0.1 name only
 
     obj, new = importlib.import_module("dcjax.compat").DEPRECATED[name]
     warn_deprecated(f"dcjax.{name}", new)

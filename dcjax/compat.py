@@ -13,6 +13,7 @@ objects (`Parameters`, a strategy, an integrator, a memory, recordings with thei
 limit) and calls `fit`."""
 
 import dataclasses
+import warnings
 from typing import ClassVar
 
 import equinox as eqx
@@ -23,10 +24,11 @@ from jaxtyping import Array, ArrayLike, Float
 from .deprecation import warn_deprecated
 from .errors import ConfigError
 from .fitting.each import fit_each
+from .fitting.engine import fit_setups
 from .fitting.fit import fit
 from .fitting.result import FitResult
 from .fitting.search import Search
-from .fitting.setup import with_weights
+from .fitting.setup import plan, with_weights
 from .fitting.vector import parameters_of, resolve_parameters
 from .io.recording import Recording
 from .models import Model, get_model
@@ -189,8 +191,6 @@ def _with_generations(strategy, generations):
 
 
 def _fit_with_starts(recs, m, params, starts, search, integ, progress) -> FitResult:
-    from .fitting.engine import fit_setups
-    from .fitting.setup import plan
 
     p = plan(m, search, integrator=integ)
     return fit_setups(p, [p.setup(recs, params, starts=starts)], progress)[0]
@@ -246,7 +246,6 @@ def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0,
     if not isinstance(runs, int) or isinstance(runs, bool) or runs < 1:
         raise ConfigError(f"runs must be a positive integer, got {runs!r}")
     b = options.pop("bounds", None)
-    import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)

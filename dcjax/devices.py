@@ -46,7 +46,7 @@ LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
 
 def _backends_started() -> bool:
     try:
-        from jax._src import xla_bridge
+        from jax._src import xla_bridge  # private: whether a backend has started (no public call tells)
 
         return bool(xla_bridge.backends_are_initialized())
     except (ImportError, AttributeError):  # pragma: no cover - a JAX without the helper

@@ -36,6 +36,7 @@ import numpy as np
 from ..errors import DataError
 from ..io.recording import Recording
 from ..models import Model
+from .report import channel_fit
 
 ERROR, WARNING = "error", "warning"
 
@@ -257,8 +258,6 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
             out.append(Finding("slow-rate", WARNING, f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: "
                                                      f"{name.split('/')[0]} cannot be resolved at this rate"))  # fmt: skip
     if fits is None:
-        from .report import channel_fit
-
         fits = channel_fit(result, rec)
     for c, v in fits.items():
         if not v > 0:

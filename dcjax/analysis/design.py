@@ -31,6 +31,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 
 from ..compiling import filter_jit
 from ..errors import ConfigError
@@ -389,7 +390,6 @@ def _log_variances(loss: _Criterion, inputs: jax.Array) -> jax.Array:
 def _optimize(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple[jax.Array, jax.Array]:
     """Projected Adam from each row of `z0` (vmapped): the best levels by the exact criterion met
     on the way, and that value."""
-    import optax
 
     opt = optax.adam(rate)
 

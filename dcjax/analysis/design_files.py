@@ -2,6 +2,8 @@
 (`noise_from_fit`, `scales_from_fit`), and what `dcjax design` writes (`write_design`: the
 inputs, `design.json` and `design.png`)."""
 
+from pathlib import Path
+
 import numpy as np
 
 from ..io.files import save_figure, strict_json, write_atomic, write_text
@@ -47,7 +49,6 @@ def scales_from_fit(result, fraction: float = 0.01) -> dict[str, float]:
 def write_design(design: Design, baselines: dict[str, Design], folder, model) -> list:
     """`input.csv` (t and the designed input), `design.json` (criterion, levels, predicted
     standard errors of the design and of each baseline) and `design.png`."""
-    from pathlib import Path
 
     m = get_model(model)
     folder = Path(folder)
@@ -83,7 +84,7 @@ def write_design(design: Design, baselines: dict[str, Design], folder, model) ->
 
 
 def _plot_design(design: Design, baselines: dict[str, Design], m: Model, path) -> None:
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # lazy: matplotlib adds ~0.3 s to importing dcjax
 
     rec = design.recording
     chans = [*[c for c in m.inputs if c in rec.channels], *m.outputs]

@@ -34,6 +34,7 @@ from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
+from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..simulation.integrators import RK4
 from ..simulation.joint import grid_length, paddable, padded
@@ -71,7 +72,7 @@ _objective_jit = filter_jit(objective)  # one compilation per recording shape, n
 
 
 def _filtered(x: np.ndarray, fs: float, cutoff: float, order: int) -> np.ndarray:
-    from scipy.signal import butter, filtfilt
+    from scipy.signal import butter, filtfilt  # lazy: scipy adds 0.1-0.6 s to importing dcjax
 
     if cutoff >= 0.5 * fs:
         return x.copy()
@@ -136,7 +137,7 @@ def _rows(recording, model, cutoff, order, border, decimate):
 def _decimated(x: np.ndarray, q: int) -> np.ndarray:
     if q <= 1:
         return x
-    from scipy.signal import decimate
+    from scipy.signal import decimate  # lazy: scipy adds 0.1-0.6 s to importing dcjax
 
     return decimate(x, q)
 
@@ -218,7 +219,7 @@ def _derivative_residual(model: Model, phi, data):
 @filter_jit
 def _lm_solve(model: Model, phi0, data):
     """Vmapped LM from every start (one compilation per model and data shape); (solutions, costs)."""
-    import optimistix as optx
+    import optimistix as optx  # lazy: optimistix adds ~0.2 s to importing dcjax
 
     solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
     residual = lambda phi, d: _derivative_residual(model, phi, d)
@@ -421,7 +422,6 @@ def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | 
     parameters and each range reaches a decade either side of its estimate, while a nonlinear
     model's estimate is a Levenberg–Marquardt from 64 starts (~0.3 s a servo log: 476 logs
     took 4 minutes of a command-line fit)."""
-    from ..models.bounds import Bounds
 
     m = get_model(model)
     recs = recordings if isinstance(recordings, (list, tuple)) else [recordings]

@@ -35,6 +35,7 @@ from jax.sharding import Mesh, PartitionSpec
 
 from ..compiling import filter_jit
 from ..errors import ConfigError
+from ..io.files import write_atomic
 from ..models.priors import Prior, prior_from_spec
 from ..models.space import Space
 from ..simulation.joint import JointProblem
@@ -119,7 +120,6 @@ class Posterior:
         """The draws and diagnostics as an .npz (arrays `draws` (chains, draws, F), `names`, ...),
         written atomically; `result_sha256`: the sha256 of the result.json sampled (`dcjax report`
         takes a posterior.npz beside a result for it only where they match)."""
-        from ..io.files import write_atomic
 
         def write(tmp):
             with open(tmp, "wb") as f:

@@ -1,10 +1,14 @@
 """`dcjax fit | simulate | validate | report | design | sample`: identification and its checks from a shell."""
 
 import os
+import signal
 import sys
+import threading
 import warnings
 
+from ..devices import use_compilation_cache, use_compiled_loops, use_host_devices
 from ..errors import DcjaxError
+from ..models import get_model
 from .args import _parser
 from .design import design_cmd
 from .each import fit_each_cmd
@@ -18,7 +22,6 @@ __all__ = ["bound_hints", "entry", "main"]
 
 def fit(args) -> int:
     """`dcjax fit`: one fit of the recordings (a joint fit of several), or `--each` file on its own."""
-    from ..models import get_model
 
     model = get_model(args.model)
     options = _options(args, model)
@@ -44,7 +47,6 @@ def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
     stderr. `cleanup`: a list the output folders put their undo on while they are open (`entry`)."""
     args = _parser().parse_args(argv)
     args.cleanup = cleanup
-    from ..devices import use_compilation_cache, use_compiled_loops, use_host_devices
 
     use_host_devices()
     with warnings.catch_warnings():  # main() called in a process where JAX already runs: skip quietly
@@ -84,8 +86,6 @@ def entry(argv: list[str] | None = None) -> int:
     (XLA returns to Python only when its call ends): the files already written are whole (each
     was written to a temporary name and renamed), an output folder this run created and wrote
     nothing into is removed, and the exit status is 128 + the signal's number."""
-    import signal
-    import threading
 
     cleanup: list = []
     outcome: dict = {}

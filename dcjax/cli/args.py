@@ -3,7 +3,14 @@
 import argparse
 
 from ..errors import ConfigError
+from ..fitting.search import MANY_STEPS, Search
 from ..io.units import parse_mapping
+from ..models import MODELS
+from ..models.priors import prior_from_spec
+from ..simulation.integrators import INTEGRATORS
+from ..strategies import METHODS
+from ..strategies.memory import MEMORIES
+from ..version import __version__
 
 
 def _floats(text: str, what: str, n: int | None = None) -> list[float]:
@@ -51,7 +58,6 @@ def _named_ranges(text: str | None, what: str) -> dict[str, tuple[float, float]]
 
 def _named_priors(items: list[str] | None) -> dict[str, str]:
     """`--prior NAME=SPEC` (repeatable; `;` also separates): name -> prior spec, checked."""
-    from ..models.priors import prior_from_spec
 
     out = {}
     for item in [part for text in items or [] for part in text.split(";") if part.strip()]:
@@ -224,12 +230,6 @@ def _add_saved_parsers(sub) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from ..fitting.search import MANY_STEPS, Search
-    from ..models import MODELS
-    from ..simulation.integrators import INTEGRATORS
-    from ..strategies import METHODS
-    from ..strategies.memory import MEMORIES
-    from ..version import __version__
 
     p = argparse.ArgumentParser(prog="dcjax", description="Motor and drive parameter identification (Jesenik et al. 2020).")
     p.add_argument("--version", action="version", version=f"dcjax {__version__}")

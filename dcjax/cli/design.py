@@ -2,6 +2,10 @@
 
 from pathlib import Path
 
+import numpy as np
+
+from ..analysis.design import design_input, evaluate_input
+from ..analysis.design_files import noise_from_fit, scales_from_fit, write_design
 from ..errors import ConfigError
 from .args import _named_floats, _named_ranges, _names
 from .output import announce, output_folder
@@ -9,10 +13,6 @@ from .saved import _result
 
 
 def design_cmd(args) -> int:
-    import numpy as np
-
-    from ..analysis.design import design_input, evaluate_input
-    from ..analysis.design_files import noise_from_fit, scales_from_fit, write_design
 
     res = _result(args)
     m = res.model
@@ -86,7 +86,6 @@ def _given_inputs(m, rec, t, args) -> dict:
     """The inputs that are not designed: the model's per-recording constants (the fitted
     recording's, over them --const), and the inputs --keep names, as the fitted recording has them
     (held from sample to sample, the last held to the end of the design)."""
-    import numpy as np
 
     consts = {**(rec.constants if rec is not None else {}), **_named_floats(args.const, "--const")}
     bad = [c for c in consts if c not in m.inputs]
@@ -133,7 +132,6 @@ def _baseline_input(path: str, t, names: tuple[str, ...]):
     """A baseline of the designed inputs `names` on the design's grid `t`: a CSV with a header
     naming t and each of them (held from each sample to the next), or, for one designed input,
     one column of len(t) values. (N,) for one input, (N, D) for D."""
-    import numpy as np
 
     try:
         table = np.genfromtxt(path, delimiter=",", names=True, dtype=float)

@@ -4,7 +4,14 @@ and where the command's wall time went."""
 import sys
 import time
 
+import jax.monitoring
+from tqdm import tqdm
+
+from ..fitting.each import fit_each
+from ..fitting.result import FailedFit
+from ..fitting.summary import summary_rows, write_summary
 from .fitting import _file_params, _load, _no_finite_candidate, _prepared
+from .output import announce, each_products, file_names, output_folder, remove_earlier, save_fit
 
 COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
                   "/jax/core/compile/backend_compile_duration")  # fmt: skip
@@ -25,14 +32,12 @@ class _Split:
             self._compiled += duration_secs
 
     def __enter__(self):
-        import jax.monitoring
 
         jax.monitoring.register_event_duration_secs_listener(self._listen)
         self._t, self._c, self._inside, self._inside_c = time.perf_counter(), 0.0, 0.0, 0.0
         return self
 
     def __exit__(self, *exc):
-        import jax.monitoring
 
         jax.monitoring.unregister_event_duration_listener(self._listen)
 
@@ -66,7 +71,6 @@ class _Split:
 
 def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
     """`[k/n] name: ok, OF ..., S s, L left`: S the file's share of its batch's search and its writing."""
-    from ..fitting.result import FailedFit
 
     status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"
     return f"[{k}/{n}] {name}: {status}, {seconds:.3g} s, {n - k} left"
@@ -83,7 +87,6 @@ def fit_each_cmd(args, model, options) -> int:
 
 
 def _fit_each_files(args, model, options, split: "_Split") -> int:
-    from .output import each_products, output_folder
 
     with output_folder(args, each_products, "an earlier --each run's summary and results") as folder:
         return _fit_each_into(folder, args, model, options, split)
@@ -92,10 +95,6 @@ def _fit_each_files(args, model, options, split: "_Split") -> int:
 def _fit_each_into(folder, args, model, options, split: "_Split") -> int:
     """`fit --each` writing into the `OutputFolder` `folder`, after removing the earlier run's
     files it replaces (--overwrite)."""
-    from ..fitting.each import fit_each
-    from ..fitting.result import FailedFit
-    from ..fitting.summary import summary_rows, write_summary
-    from .output import announce, file_names, remove_earlier, save_fit
 
     plots = args.plots or "summary"
     n = len(args.data)
@@ -150,8 +149,6 @@ def _file_bar(n: int, args):
     tty = sys.stderr.isatty() if args.progress is None else bool(args.progress)
     if not tty:
         return lambda line: None if line is None else print(line, file=sys.stderr, flush=True)
-    from tqdm import tqdm
-
     bar = tqdm(total=n, unit="file", desc="files", leave=False, dynamic_ncols=True)
 
     def report(line):

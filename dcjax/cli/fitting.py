@@ -4,15 +4,32 @@ import dataclasses
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from ..analysis.checks import fit_findings
+from ..analysis.estimate import auto_bounds
 from ..errors import ConfigError
+from ..fitting.fit import fit
+from ..fitting.observation import Observation
+from ..fitting.search import Search
+from ..fitting.setup import with_weights
+from ..fitting.vector import base_name, sidecar_preset, unit_of
+from ..io import datasets
+from ..io.loading import Reading, load_recording, preprocess
 from ..io.units import parse_mapping
+from ..models import DiscreteModel
+from ..models.bounds import Bounds, resolve_bounds
+from ..models.parameters import Parameter, Parameters
+from ..simulation.integrators import INTEGRATORS, AutoSubsteps
+from ..simulation.losses import get_loss
+from ..strategies.memory import MEMORIES
 from .args import _floats, _named_floats, _named_ranges, _names
 from .flags import as_flags
+from .output import announce, fit_products, output_folder, remove_earlier, save_fit
 
 
 def reading_of(args):
     """The command's reading options as one `dcjax.io.loading.Reading` (none given: the defaults)."""
-    from ..io.loading import Reading
 
     return Reading(
         columns=parse_mapping(args.columns, "--columns") or None,
@@ -30,8 +47,6 @@ def reading_of(args):
 def _load(data: str, args, model, reading=None):
     """`data` (a file, or an embedded data set's name) read with `reading` (default the command's
     own options), then what the command keeps of it (--window, --every, --trim) and its --limit."""
-    from ..io import datasets
-    from ..io.loading import load_recording, preprocess
 
     reading = reading_of(args) if reading is None else reading
     if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
@@ -58,7 +73,6 @@ def _bounds(args, model, recs):
     sidecar's preset, else auto; auto with a --bound range for every parameter estimates nothing)
     and the --bound overrides of the model's parameters over them. Returns (Bounds, start values of
     the auto estimate)."""
-    from ..models.bounds import Bounds, resolve_bounds
 
     recs = recs if isinstance(recs, list) else [recs]
     if (args.lower is None) != (args.upper is None):
@@ -70,14 +84,10 @@ def _bounds(args, model, recs):
             raise ConfigError("give either --bounds or --lower/--upper, not both")
         bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
     else:
-        from ..fitting.vector import sidecar_preset
-
         preset = args.bounds or sidecar_preset(recs, model)
         if preset.lower() == "auto" and set(model.names) <= set(given):  # --bound gave every range: nothing to estimate
             bounds = Bounds([given[n][0] for n in model.names], [given[n][1] for n in model.names], model.names)
         elif preset.lower() == "auto":
-            from ..analysis.estimate import auto_bounds
-
             bounds, start, _ = auto_bounds(recs, model)
         else:
             bounds = resolve_bounds(model, preset)
@@ -93,11 +103,6 @@ def _options(args, model) -> dict:
     """The `dcjax.fit` options every file of this command shares (the parameters are per file; the
     search, `_search`, once the recordings are read): the integrator, the memory and the
     `Observation`, built once."""
-
-    from ..fitting.observation import Observation
-    from ..models import DiscreteModel
-    from ..simulation.integrators import INTEGRATORS, AutoSubsteps
-    from ..simulation.losses import get_loss
 
     nd = _nd(args.nd)
     if isinstance(model, DiscreteModel):
@@ -126,8 +131,6 @@ def _search(args, recs=()):
     --memory, --polish as given, else the default for a fit of `recs` (`Search.for_steps`: a joint
     fit of many recordings searches shorter; `--each` and one recording: the paper's). The
     namespace gets the values, so the command's report shows them."""
-    from ..fitting.search import Search
-    from ..strategies.memory import MEMORIES
 
     nd = _nd(args.nd)
     chosen = Search.for_steps(sum(len(r.t) for r in recs) * (nd if isinstance(nd, int) else 1) if len(recs) > 1 else 0)
@@ -150,7 +153,6 @@ def _precision(args, model) -> dict[str, float]:
 
 def _prepared(rec, args, model):
     """The recording as the flags ask: --limit (also on an embedded data set), --weights."""
-    from ..fitting.setup import with_weights
 
     if args.limit is not None and rec.limit != args.limit:
         rec = rec.replace(limit=args.limit)
@@ -164,7 +166,6 @@ def _file_params(args, model, rec):
     preset, else auto from every recording `rec`), --fix, start values from --x0 (else the auto
     estimate's, where inside the ranges), --precision, --local; then the experiment's parameters
     (y0_*, offset_*, delay_*) that --bound, --fix, --x0 or --local name."""
-    from ..models.parameters import Parameter, Parameters
 
     recs = rec if isinstance(rec, list) else [rec]
     bounds, start = _bounds(args, model, recs)
@@ -207,7 +208,6 @@ def _file_params(args, model, rec):
 
 
 def _fit_one(recs, args, model, options, progress):
-    from ..fitting.fit import fit
 
     recs = [_prepared(r, args, model) for r in recs]
     result = fit(recs, model, _file_params(args, model, recs), progress=progress, **options)
@@ -244,7 +244,6 @@ def bound_hints(result) -> list[str]:
 
 
 def _print_fit(result, recs, args, model, out):
-    import numpy as np
 
     truth = recs[0].metadata.get("true_params")
     if any(r.metadata.get("true_params") != truth for r in recs) or not isinstance(truth, dict) or set(truth) != set(model.names):
@@ -264,7 +263,6 @@ def _print_fit(result, recs, args, model, out):
         print(
             f"  nd auto: ND={auto['chosen']} (reference error {auto['reference_error']:.2e} <= {auto['tol']:g}: {auto['converged']}); at the ND=1 fit {tried}"
         )
-    from ..fitting.vector import base_name, unit_of
 
     for note in result.observation.notes(model, recs):
         print(as_flags(note))
@@ -303,7 +301,6 @@ def _print_fit(result, recs, args, model, out):
         print(result.uncertainties.table())
     for line in bound_hints(result):
         print(line)
-    from ..analysis.checks import fit_findings
 
     named = lambda r, g: g if len(recs) == 1 else dataclasses.replace(g, message=f"{r.name}: {g.message}")  # a joint fit: whose
     for f in [*result.checks, *(named(r, g) for r in recs for g in fit_findings(result, r))]:
@@ -316,7 +313,6 @@ def _print_fit(result, recs, args, model, out):
 
 def _no_finite_candidate(result) -> str | None:
     """The one-line error of a fit none of whose runs found a finite objective, else None."""
-    import numpy as np
 
     if np.any(np.isfinite(result.run_of)):
         return None
@@ -326,7 +322,6 @@ def _no_finite_candidate(result) -> str | None:
 
 def fit_one(args, model, options) -> int:
     """`dcjax fit` of one recording or a joint fit of several: result.json and fit.png in --out."""
-    from .output import announce, fit_products, output_folder, remove_earlier, save_fit
 
     if args.plots not in (None, "none"):
         raise ConfigError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")

@@ -4,6 +4,7 @@ unless --overwrite), a fit's files with result.json written last as their manife
 recording names that become file names."""
 
 import contextlib
+import fcntl
 import json
 import os
 import shutil
@@ -76,7 +77,6 @@ class OutputFolder:
         return [p for p in self.earlier(folder) if p.exists()] if folder.is_dir() else []
 
     def _lock(self, folder: Path) -> None:
-        import fcntl
 
         if folder.exists() and not folder.is_dir():
             raise NotADirectoryError(f"--out {folder} is a file, not a folder")

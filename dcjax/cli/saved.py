@@ -5,18 +5,27 @@ import sys
 import warnings
 from pathlib import Path
 
+import jax.numpy as jnp
 import numpy as np
 
+from ..analysis.checks import pulse_width
+from ..analysis.plotting import corner
+from ..analysis.report import channel_fit
 from ..errors import ConfigError
-from .fitting import _load
+from ..fitting.restore import load_result
+from ..io.files import file_sha256, strict_json, write_atomic, write_text
+from ..io.loading import Reading
+from ..io.units import ColumnError
+from .args import _named_priors
+from .fitting import _load, reading_of
 from .flags import as_flags
+from .output import announce, file_names, output_folder
 
 
 def _result(args):
     """The saved result of `args.result`: its model named by the file where built in, else by
     --model; its recordings --data where given (read in the fit's layout), else the files it
     names where their bytes are the fitted ones (--allow-changed-data: read changed ones too)."""
-    from ..fitting.restore import load_result
 
     model = getattr(args, "model", None)
     allow = bool(getattr(args, "allow_changed_data", False))
@@ -37,10 +46,6 @@ def _load_like_fit(data: str, args, res):
     own header, with a note (the fit's unit conversions are not applied to it). A channel whose
     peak differs from the fitted recording's by more than 10x gets a one-line warning (a unit or
     scale slip)."""
-    from ..analysis.checks import pulse_width
-    from ..io.loading import Reading
-    from ..io.units import ColumnError
-    from .fitting import reading_of
 
     src = next((d for d in res.settings.get("data") or [] if isinstance(d, dict)), {})
     given = reading_of(args)
@@ -71,10 +76,6 @@ def _load_like_fit(data: str, args, res):
 
 
 def simulate_cmd(args) -> int:
-    import numpy as np
-
-    from ..io.files import write_atomic
-    from .output import announce, file_names, output_folder
 
     res = _result(args)
     rec = _load_like_fit(args.data, args, res)
@@ -93,11 +94,6 @@ def simulate_cmd(args) -> int:
 
 
 def validate_cmd(args) -> int:
-    import jax.numpy as jnp
-
-    from ..analysis.report import channel_fit
-    from ..io.files import strict_json, write_text
-    from .output import announce, file_names, output_folder
 
     res = _result(args)
     recs = [_load_like_fit(d, args, res) for d in args.data]
@@ -124,10 +120,6 @@ def validate_cmd(args) -> int:
 def sample_cmd(args) -> int:
     """Posterior draws of a saved result: the table (posterior beside the linearised 90 %
     intervals), posterior.npz and corner.png in --out."""
-    from ..analysis.plotting import corner
-    from ..io.files import file_sha256
-    from .args import _named_priors
-    from .output import announce, output_folder
 
     res = _result(args)
     priors = _named_priors(args.prior)
@@ -151,8 +143,7 @@ def sample_cmd(args) -> int:
 
 
 def report_cmd(args) -> int:
-    from ..analysis.posterior import Posterior
-    from ..io.files import file_sha256
+    from ..analysis.posterior import Posterior  # lazy: blackjax adds ~0.3 s to importing dcjax
 
     res = _result(args)
     if args.uncertainty:

@@ -11,8 +11,10 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..models import model_spec
+from ..simulation.diffrax_reference import reference_simulate_jit, simulation_error
 from ..simulation.integrators import AutoSubsteps, integrator_spec
 from ..simulation.joint import stacked_target
+from .polish import polish_batch
 from .result import FitResult
 from .runs import run_setups
 from .search import Search
@@ -22,7 +24,6 @@ from .vector import base_name
 
 def polish_runs(run_x, setup: Setup):
     """Levenberg–Marquardt from every run's best: (parameters, OFs, what the polish did)."""
-    from .polish import polish_batch
 
     t0 = time.perf_counter()
     pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), stacked_target(setup.target), setup.space))
@@ -88,7 +89,6 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
     take the first ND whose error (max over channels of max |y - y_ref| / max |y_measured|) is
     at most `tol`; refit there, and repeat from that fit until the ND stays (at most 3 rounds).
     The setups of one ND are fitted in one call each round. `settings["nd_auto"]` records the choice."""
-    from ..simulation.diffrax_reference import reference_simulate_jit, simulation_error
 
     auto = plan.integrator
     assert isinstance(auto, AutoSubsteps)

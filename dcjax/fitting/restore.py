@@ -2,17 +2,21 @@
 `dcjax.fitting.result_file` (nothing it names is imported), its recordings read again only where
 their bytes are the ones fitted."""
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from ..analysis.checks import Finding
 from ..errors import ConfigError
+from ..io import datasets
+from ..io.files import file_sha256
+from ..io.loading import LOAD_KEYS, Reading, load_recording
 from ..io.recording import Recording
-from ..models import Model, get_model
+from ..models import MODELS, Model, get_model
 from ..models.bounds import Bounds
 from ..models.priors import prior_from_spec
-from ..simulation.integrators import Integrator, get_integrator
+from ..simulation.integrators import INTEGRATORS, Integrator, get_integrator
 from .observation import Observation
 from .result import FitResult
 from .result_file import MAX_RUNS, MAX_SUBSTEPS, Fields, ResultFileError, integrator_name, model_name, read_record, within_bounds
@@ -35,8 +39,6 @@ def load_result(
     the result names (relative to its folder), each read only where its bytes are the ones fitted
     (size and sha256; `allow_changed_data=True` reads a changed one, with a warning), and the
     embedded data sets; a file not read is named in a warning."""
-    from ..models import MODELS
-    from ..simulation.integrators import INTEGRATORS
 
     path = Path(path)
     top = Fields(path, read_record(path))
@@ -142,10 +144,6 @@ def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bo
     """The recordings a result names (`load_result`): each data file resolved against the
     result's folder and read only where its bytes are the fitted ones; an embedded data set by
     name. A recording that is not read is named in a warning; the others are kept."""
-    import warnings
-
-    from ..io import datasets
-    from ..io.loading import LOAD_KEYS, Reading, load_recording
 
     data = settings.data.get("data") or []
     if not isinstance(data, list):
@@ -195,7 +193,6 @@ UNSIZED_HASH_BYTES = 1 << 30
 def _changed(src: Fields, file: Path) -> str | None:
     """Why a recorded data file cannot be taken for the fitted one (None: its size, sha256 and
     its sidecar's sha256 are the recorded ones). Only a regular file's bytes are hashed."""
-    from ..io.files import file_sha256
 
     if not file.is_file():
         return "is not there"

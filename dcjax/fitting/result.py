@@ -12,6 +12,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from ..analysis.plotting import plot_result
+from ..analysis.report import fit_report
 from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..io.files import strict_json, write_text
@@ -24,6 +26,7 @@ from ..simulation.integrators import Integrator, get_integrator
 from ..simulation.joint import JointProblem, Layout, grid_length, padded
 from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
+from ..version import __version__
 from .observation import Observation
 from .result_file import FORMAT, VERSION, relative_to
 from .vector import base_name, rows_of, transferred, unit_of
@@ -46,8 +49,8 @@ def _simulate_on_grid(x, target: JointProblem, r: int) -> np.ndarray:
 
 
 if TYPE_CHECKING:
-    from ..analysis.posterior import Posterior
-    from ..analysis.uncertainty import Uncertainty
+    from ..analysis.posterior import Posterior  # lazy: blackjax adds ~0.3 s to importing dcjax
+    from ..analysis.uncertainty import Uncertainty  # lazy: optimistix and scipy.stats for an analysis asked for
 
 
 @dataclasses.dataclass(frozen=True)
@@ -188,8 +191,8 @@ class FitResult:
         parameter's `stderr` in `.params`); fixed parameters are known. With `profile="Tla"`
         also a profile likelihood over the 95 % interval of that parameter
         (`.uncertainties.profile = (values, OFs)`). This result is not changed."""
-        from ..analysis.uncertainty import profile as profile_fn
-        from ..analysis.uncertainty import uncertainty
+        from ..analysis.uncertainty import profile as profile_fn  # lazy: optimistix and scipy.stats for an analysis asked for
+        from ..analysis.uncertainty import uncertainty  # lazy: optimistix and scipy.stats for an analysis asked for
 
         space = self.space
         x = np.array([self.best_values[n] for n in self.names])
@@ -216,7 +219,7 @@ class FitResult:
         search space's prior (uniform in each range, log-uniform on a log scale; a parameter's own
         `Parameter(prior=...)` of the fit, or `priors`: name -> `Prior` or spec, which replace it):
         `dcjax.analysis.posterior.sample`. Needs the fitted recordings."""
-        from ..analysis.posterior import sample
+        from ..analysis.posterior import sample  # lazy: blackjax adds ~0.3 s to importing dcjax
 
         x = np.array([self.best_values[n] for n in self.names])
         own = {n: p.prior for n, p in self.params.items() if p.prior is not None} | dict(priors or {})
@@ -352,7 +355,6 @@ class FitResult:
         return out
 
     def to_dict(self) -> dict:
-        from ..version import __version__
 
         names = self.names
         return {
@@ -433,14 +435,12 @@ class FitResult:
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the
         convergence; see `dcjax.analysis.plotting.plot_result`."""
-        from ..analysis.plotting import plot_result
 
         return plot_result(self, path=path, **kw)
 
     def report(self, posterior=None) -> str:
         """lmfit's `fit_report`; with `posterior` (a `Posterior` of this result, e.g.
         `Posterior.load("out/posterior.npz")`) its intervals beside the linearised ones."""
-        from ..analysis.report import fit_report
 
         return fit_report(self, posterior=posterior)
 

@@ -9,7 +9,9 @@ non-finite objective is `null` in the file (strict JSON) and +inf when read; an 
 that breaks the result (a NaN, a parameter outside its fitted range) is a one-line error
 naming the field."""
 
+import json
 import math
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -101,7 +103,6 @@ class Fields:
 def read_record(path: Path) -> dict:
     """The checked content of a result file: the JSON object, or a one-line `ResultFileError`
     (no such file, too large, not JSON, not a dcjax result, a newer format)."""
-    import json
 
     if not path.is_file():
         raise ResultFileError(f"no such result file: {path}")
@@ -156,7 +157,6 @@ def within_bounds(path: Path, values: Mapping[str, float], names, lower, upper, 
 def relative_to(path: str, folder: Path) -> str:
     """`path` relative to `folder` where it can be (a result moved with its data still finds
     it), else absolute."""
-    import os
 
     try:
         return Path(os.path.relpath(Path(path).resolve(), folder.resolve())).as_posix()

@@ -13,6 +13,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.experimental import multihost_utils
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 
@@ -38,8 +39,6 @@ def mesh_of(devices, axis: str) -> Mesh | None:
 def to_host(a: jax.Array) -> np.ndarray:
     """The whole array on this host: gathered from every process after `jax.distributed`."""
     if jax.process_count() > 1 and not a.is_fully_addressable:
-        from jax.experimental import multihost_utils
-
         return np.asarray(multihost_utils.process_allgather(a, tiled=True))
     return np.asarray(jax.device_get(a))
 

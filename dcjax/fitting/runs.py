@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
+from tqdm import tqdm
 
 from ..compiling import LEAN, QUICK
 from ..models.space import Space
@@ -67,8 +68,6 @@ def fitness(space: Space, target: JointProblem | StackedJoint | SplitJoint) -> F
 
 def _tqdm_progress(total: int):
     """A callback that moves a tqdm bar (on stderr) to `fraction * total`; `None` closes it."""
-    from tqdm import tqdm
-
     bar = tqdm(total=total, unit="it", desc="iterations (all runs)", leave=False, dynamic_ncols=True)
 
     def report(fraction):

@@ -1,12 +1,17 @@
 """The summary of a batch of fits (`fit_each`, and the command line's fit of each file): one row per recording,
 robust outlier flags, `summary.csv` and `summary.png`."""
 
+import csv
+import io
 import math
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from ..analysis.checks import fit_findings
+from ..analysis.report import channel_fit
 from ..io.files import save_figure, write_atomic
 from ..models import get_model
 from .result import FailedFit, FitResult
@@ -68,8 +73,6 @@ def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[d
     """One row per recording: status, error, OF, parameters, fit % per channel, at-bound
     parameters, the data checks' findings (`checks`: before and after the fit) and the outlier
     flags (`outlier_flags`)."""
-    from ..analysis.checks import fit_findings
-    from ..analysis.report import channel_fit
 
     m = get_model(model) if model is not None else next((r.model for r in results if isinstance(r, FitResult)), get_model())
     rows = []
@@ -103,8 +106,6 @@ def _source(r: FitResult) -> str:
 def write_summary(rows: list[dict], folder: Path, model=None, plot: bool = True) -> tuple[Path, Path]:
     """`summary.csv` (every row, failed ones with their error) and `summary.png` (each
     parameter's spread over the recordings, outliers marked)."""
-    import csv
-    import io
 
     m = get_model(model)
     folder.mkdir(parents=True, exist_ok=True)
@@ -130,9 +131,8 @@ def _plot_summary(rows, m, path: Path) -> None:
     """Each parameter (and the OF) over the fitted recordings, x labelled by their names on the
     bottom row (the panels share x), the outliers marked and named, the failed recordings named
     under the title. A fixed layout: constrained layout of ~100 rotated names took seconds."""
-    import textwrap
 
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure  # lazy: matplotlib adds ~0.3 s to importing dcjax
 
     ok = [r for r in rows if r["status"] == "ok"]
     cols = ["of", *m.names]

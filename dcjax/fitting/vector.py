@@ -15,14 +15,16 @@ and its start values as unit-cube rows (`start_rows`)."""
 
 import dataclasses
 import re
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
 
+from ..analysis.estimate import auto_bounds
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..io.units import SI_UNITS
-from ..models import Model
+from ..models import MODELS, Model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space
@@ -192,8 +194,6 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> tup
     if params is None:
         params = sidecar_preset(recordings, model)
     if isinstance(params, str) and params.lower() == "auto":
-        from ..analysis.estimate import auto_bounds
-
         bounds, start, _ = auto_bounds(recordings, model)
         return parameters_of(model, bounds, start), Parameters()
     if isinstance(params, str):
@@ -214,9 +214,6 @@ def sidecar_preset(recordings: list[Recording], model: Model) -> str:
     """The bounds the recordings' sidecars name (`"bounds"`), where they all name the same preset
     of `model`, else "auto". A name that is no preset of any built-in model (a typo) is a
     one-line error; another model's preset, or sidecars that disagree, a warning."""
-    import warnings
-
-    from ..models import MODELS
 
     named = {r.metadata.get("bounds") for r in recordings} - {None}
     if not named:

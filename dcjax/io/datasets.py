@@ -5,14 +5,16 @@ The file holds the initial instant t = 0 and the 500 computed instants t = 1e-4 
 (501 rows), integrated with RK4 (eq. 14–23) as in the paper. The objective sums over all
 rows; the t = 0 residual is zero by construction (the initial state is the first sample)."""
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import ConfigError
 from ..models.dc import NAMES as PARAM_NAMES
+from .emulate import emulate, md_settings
 from .numpy_simulator import simulate_numpy
-from .recording import Recording, load_csv
+from .recording import Recording, load_csv, save_csv
 
 # Table 3. SD2: larger inertia; SD3: smaller La (faster electrical time constant); SD4: smaller J.
 SD_PARAMS: dict[str, dict[str, float]] = {
@@ -71,8 +73,6 @@ def load(name: str) -> Recording:
     elif key in SD_PARAMS:
         rec = generate_sd(key)
     else:
-        from .emulate import emulate, md_settings
-
         rec = emulate(md_settings(key))
     return rec.replace(metadata={**rec.metadata, "source": {"embedded": key, "name": key}})
 
@@ -81,9 +81,6 @@ def write_or_check(makers: dict, folders: Path | list[Path], check: bool) -> int
     """Write `NAME.csv` (+ sidecar) for each `makers[NAME]()` recording into every folder of
     `folders` (the repository's data/ and the package's dcjax/data/), or with `check` compare a
     fresh generation with the files there byte for byte (1 if any differs)."""
-    import tempfile
-
-    from .recording import save_csv
 
     folders = [folders] if isinstance(folders, Path) else list(folders)
 

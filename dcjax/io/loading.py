@@ -26,7 +26,7 @@ def read_npz(path: Path) -> dict[str, np.ndarray]:
 
 def read_mat(path: Path) -> dict[str, np.ndarray]:
     try:
-        from scipy.io import loadmat
+        from scipy.io import loadmat  # lazy: scipy adds 0.1-0.6 s to importing dcjax
     except ImportError:
         raise DataError("reading .mat files needs scipy (pip install scipy)") from None
     try:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DataError
+from .units import known_unit
 
 DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None}
 MISSING = ("", "nan", "na", "n/a", "null", "none")  # a field read as NaN (as pandas' read_csv does)
@@ -104,7 +105,6 @@ def _units_line(fields: list[str]) -> bool:
     """A line of units under the header (`s, V, A, rad/s`, `[ms]`, `(rpm)`, `degC`): every
     field unit-shaped (bracketed, or one short token, or empty), at least half of the
     non-empty ones bracketed or a unit dcjax knows."""
-    from .units import known_unit
 
     filled = [f for f in fields if f not in ("", "-")]
     if not filled or not all(UNIT_LIKE.match(f) for f in filled):
@@ -122,7 +122,6 @@ def unit_text(field: str) -> str:
 def header_unit(name: str) -> str | None:
     """The unit a column's name states, where it is one dcjax knows: `speed [rpm]`, `I(mA)`,
     `speed_rpm`, `time ms` (the last word); else None."""
-    from .units import known_unit
 
     m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", name)
     if m and known_unit(m.group(1)):

@@ -1,5 +1,7 @@
 """Unit conversion to SI for recorded channels, and mapping of table columns to channels."""
 
+import warnings
+
 import numpy as np
 
 from ..errors import ConfigError, DataError
@@ -163,7 +165,6 @@ def unconverted_units(headers: list[str], stated: dict[str, str], by: str, chans
     (`stated`, header -> unit, from its units line or its header name: `by`) that nothing
     converts: a unit other than the channel's SI unit that `units` does not name, or a unit dcjax
     does not know. `columns` maps the channels as `select_channels` took them."""
-    import warnings
 
     columns, units = dict(columns or {}), dict(units or {})
     for c in chans:

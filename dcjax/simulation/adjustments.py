@@ -15,6 +15,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..models.base import DiscreteModel
 from .problem import Problem
 
 
@@ -55,7 +56,6 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
     input is read as u(tau - d) at the pieces' ends (a held input: its sample before tau - d at
     the piece's middle, constant over the piece). A discrete-time model: one piece, its inputs
     read at t_{k-1} - d and t_k - d."""
-    from ..models.base import DiscreteModel
 
     m = problem.u_start.shape[1]
     delay = None if adjustments is None else adjustments.delay

@@ -13,6 +13,7 @@ from jaxtyping import Array, Float
 
 from .adjustments import Adjustments
 from .integrate import prepare
+from .objectives import simulate
 from .problem import Problem
 
 
@@ -69,7 +70,6 @@ reference_simulate_jit = jax.jit(reference_simulate, static_argnames=("max_steps
 def simulation_error(params, problem: Problem, reference: Float[Array, "n s"], adjustments: Adjustments | None = None) -> float:
     """max over the measured channels of max_k |y_sim - y_ref| / max|y_measured| (a sensor
     offset adds to both alike)."""
-    from .objectives import simulate
 
     sim = simulate(params, problem, adjustments)
     outs = problem.model.output_index

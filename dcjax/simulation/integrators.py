@@ -23,11 +23,14 @@ from collections.abc import Callable, Mapping
 from types import MappingProxyType
 from typing import Any, ClassVar
 
+import diffrax
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
 from ..errors import ConfigError
+from ..models.base import DiscreteModel
 
 State = tuple[Array, ...]
 Field = Callable[[State, State], State]
@@ -96,8 +99,6 @@ class Diffrax(Integrator):
             raise ConfigError(f"Diffrax rtol and atol must be positive, got rtol={self.rtol!r}, atol={self.atol!r}")
 
     def step(self, field, y, u0, u1, h):
-        import diffrax
-        import jax.numpy as jnp
 
         shape = jnp.broadcast_shapes(*(jnp.shape(a) for a in y))
         y0 = jnp.stack([jnp.broadcast_to(a, shape) for a in y])
@@ -145,7 +146,6 @@ SAMPLE_MAP = SampleMap()
 def integrator_for(model, integrator: "Integrator | None") -> Integrator:
     """The integrator of a simulation of `model`: the given one (default `RK4()`), or for a
     `DiscreteModel` its `SampleMap` (any other is a one-line error)."""
-    from ..models.base import DiscreteModel
 
     if isinstance(model, DiscreteModel):
         if integrator is not None and not isinstance(integrator, SampleMap):

@@ -17,8 +17,9 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..errors import ConfigError
+from ..models.base import DiscreteModel
 from .adjustments import Adjustments
-from .objectives import objective, residuals
+from .objectives import objective, residuals, simulate
 from .problem import Problem
 
 Columns = tuple[tuple[int, ...], ...]  # (R, k): per recording, a column of the search vector per item
@@ -100,7 +101,6 @@ def stack_structure(problem: Problem):
 def paddable(problem: Problem) -> bool:
     """Whether `padded` can lengthen the problem (an ODE model's state holds over steps of zero
     length; a discrete-time model's map would run on past the end)."""
-    from ..models.base import DiscreteModel
 
     return not isinstance(problem.model, DiscreteModel)
 
@@ -315,7 +315,6 @@ class JointProblem(eqx.Module):
 
     def simulate(self, x: Float[Array, " D"], r: int = 0):
         """Recording r's states at its samples, with its parameters and adjustments."""
-        from .objectives import simulate
 
         return simulate(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
 

@@ -16,6 +16,8 @@ import numpy as np
 from jax.experimental import pallas as pl
 from jaxtyping import Array, Float
 
+from ..io.recording import Recording
+from ..models import DC
 from .integrate import advance_with, step_inputs
 from .problem import Problem, make_problem
 
@@ -47,8 +49,6 @@ def kernel_compiles() -> bool:
 @functools.cache
 def _probe(backend: str) -> bool:
     """One block of the paper's motor (SD1's parameters) on 64 samples of a 220 V step."""
-    from ..io.recording import Recording
-    from ..models import DC
 
     t = np.arange(64) * 1e-4
     rec = Recording(t=t, u_a=np.full_like(t, 220.0), i_a=np.ones_like(t), omega=np.ones_like(t))

@@ -28,7 +28,7 @@ PAPER_POP = 70
 def evosax_names() -> list[str]:
     """The evosax algorithms (empty where the `evosax` extra is not installed)."""
     try:
-        from .evosax_adapter import evosax_names as names
+        from .evosax_adapter import evosax_names as names  # optional: the evosax extra
     except ImportError:
         return []
     return names()
@@ -50,7 +50,7 @@ def make_strategy(method: str | Strategy, pop_size: int | None = None, **options
         pop_size = CMA_POP if key in EVOSAX_NAMES else PAPER_POP
     name = EVOSAX_NAMES.get(key, method.removeprefix("evosax:"))
     try:
-        from .evosax_adapter import Evosax
+        from .evosax_adapter import Evosax  # optional: the evosax extra
     except ImportError:
         raise ConfigError(
             f"unknown method {method!r}; choose one of {list(METHODS)}, or install the evosax extra "
@@ -63,7 +63,7 @@ def make_strategy(method: str | Strategy, pop_size: int | None = None, **options
 
 def __getattr__(name):
     if name == "Evosax":  # imported on use: evosax starts JAX's backend at import
-        from .evosax_adapter import Evosax
+        from .evosax_adapter import Evosax  # optional: the evosax extra
 
         return Evosax
     raise AttributeError(name)

@@ -103,6 +103,6 @@ def rank_weights(population, fitness: Float[Array, " P"], state, params) -> Floa
 
 
 def self_is_pop(algo) -> bool:
-    from evosax.algorithms.population_based.base import PopulationBasedAlgorithm
+    from evosax.algorithms.population_based.base import PopulationBasedAlgorithm  # optional: the evosax extra
 
     return isinstance(algo, PopulationBasedAlgorithm)

@@ -109,8 +109,18 @@ __all__ = [
 ]
 
 
-_DEPRECATED = ("identify", "identify_each", "identify_fleet", "FleetResult", "IdentificationResult", "Params", "PARAM_NAMES",
-               "TABLE4", "TABLE8", "bounds_preset")  # fmt: skip
+_DEPRECATED = (
+    "identify",
+    "identify_each",
+    "identify_fleet",
+    "FleetResult",
+    "IdentificationResult",
+    "Params",
+    "PARAM_NAMES",
+    "TABLE4",
+    "TABLE8",
+    "bounds_preset",
+)
 
 
 def __getattr__(name: str):

@@ -196,9 +196,27 @@ def _fit_with_starts(recs, m, params, starts, search, integ, progress) -> FitRes
     return fit_setups(p, [p.setup(recs, params, starts=starts)], progress)[0]
 
 
-def identify_each(recordings, bounds=None, x0=None, *, method="de-rand-1-exp", integrator="rk4", nd=1, weights=None, runs=50,
-                  budget=140_000, seed=0, polish=False, pop_size=70, i_limit=None, memory=None, precision=None, generations=None,
-                  model=None, fixed=None) -> list[FitResult]:  # fmt: skip
+def identify_each(
+    recordings,
+    bounds=None,
+    x0=None,
+    *,
+    method="de-rand-1-exp",
+    integrator="rk4",
+    nd=1,
+    weights=None,
+    runs=50,
+    budget=140_000,
+    seed=0,
+    polish=False,
+    pop_size=70,
+    i_limit=None,
+    memory=None,
+    precision=None,
+    generations=None,
+    model=None,
+    fixed=None,
+) -> list[FitResult]:
     """Deprecated (0.1): `dcjax.fit_each`; the same bits. Raises what a recording raises."""
     warn_deprecated("dcjax.fitting.identify_each(...)", "dcjax.fit_each(...)")
     m = get_model(model)
@@ -261,7 +279,7 @@ def identify_fleet(recordings: list[Recording], *, runs: int = 1, seed: int = 0,
             "run_s": run_s,
             "devices": first.timing["devices"],
             "motors_per_s": len(results) / run_s,
-        },  # fmt: skip
+        },
         settings={**first.settings, "motors": len(results)},
         names=first.names,
         results=results,

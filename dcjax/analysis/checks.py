@@ -166,16 +166,39 @@ def input_findings(recording: Recording, model: Model, moving: list[str] | None 
         moving = [c for c in model.outputs if c in recording.channels and _moves(np.asarray(recording[c], float))]
     out = []
     if all(not np.any(v) for v in u.values()):
-        out.append(Finding("no-input", WARNING, f"input {', '.join(recorded)} is zero throughout"
-                           + (f" while {', '.join(moving)} moves: moved by hand, or a free response from the initial state only?" if moving
-                              else " and nothing moves"), recorded[0]))  # fmt: skip
+        out.append(
+            Finding(
+                "no-input",
+                WARNING,
+                f"input {', '.join(recorded)} is zero throughout"
+                + (
+                    f" while {', '.join(moving)} moves: moved by hand, or a free response from the initial state only?"
+                    if moving
+                    else " and nothing moves"
+                ),
+                recorded[0],
+            )
+        )
     elif all(np.ptp(v) == 0 for v in u.values()) and not moving:
-        out.append(Finding("no-input", WARNING, f"input {', '.join(recorded)} is constant and nothing moves: the recording shows "
-                                                "a steady state only", recorded[0]))  # fmt: skip
+        out.append(
+            Finding(
+                "no-input",
+                WARNING,
+                f"input {', '.join(recorded)} is constant and nothing moves: the recording shows a steady state only",
+                recorded[0],
+            )
+        )
     for c, v in u.items():
         if np.any(v) and (width := pulse_width(v)) < 2:
-            out.append(Finding("pulse", WARNING, f"input {c} reaches half its peak {np.max(np.abs(v)):.4g} in {width} sample only: "
-                                                 "a pulse shorter than two samples, which the sampling barely resolves", c))  # fmt: skip
+            out.append(
+                Finding(
+                    "pulse",
+                    WARNING,
+                    f"input {c} reaches half its peak {np.max(np.abs(v)):.4g} in {width} sample only: "
+                    "a pulse shorter than two samples, which the sampling barely resolves",
+                    c,
+                )
+            )
     return out
 
 
@@ -188,11 +211,23 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
     long = dt > 5 * med
     if np.any(long):
         k = int(np.argmax(dt))
-        out.append(Finding("gap", WARNING, f"{int(long.sum())} sample interval(s) longer than 5x the median {med:.3g} s "
-                                           f"(the longest {dt[k]:.3g} s at t = {t[k]:.6g} s)"))  # fmt: skip
+        out.append(
+            Finding(
+                "gap",
+                WARNING,
+                f"{int(long.sum())} sample interval(s) longer than 5x the median {med:.3g} s "
+                f"(the longest {dt[k]:.3g} s at t = {t[k]:.6g} s)",
+            )
+        )
     elif dt.size > 1 and (spread := float(np.std(dt)) / med) > 0.1:
-        out.append(Finding("irregular", WARNING, f"the sample intervals vary by {100 * spread:.0f} % (std / median {med:.3g} s, "
-                                                 f"{dt.min():.3g}..{dt.max():.3g} s): simulated on the recorded times"))  # fmt: skip
+        out.append(
+            Finding(
+                "irregular",
+                WARNING,
+                f"the sample intervals vary by {100 * spread:.0f} % (std / median {med:.3g} s, "
+                f"{dt.min():.3g}..{dt.max():.3g} s): simulated on the recorded times",
+            )
+        )
     moving = []  # the measured channels that move (`input_findings`)
     for c in model.outputs:
         if c not in recording.channels:
@@ -210,8 +245,15 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
             out.append(dataclasses.replace(flips, channel=c))
             continue
         if peak <= 5 * step or peak <= 3 * q:
-            out.append(Finding("near-dead", WARNING, f"peak {peak:.3g} is within a few noise/quantisation steps of zero "
-                                                     f"(noise {step:.2g}, step {q:.2g}): a sensor that is all but dead", c))  # fmt: skip
+            out.append(
+                Finding(
+                    "near-dead",
+                    WARNING,
+                    f"peak {peak:.3g} is within a few noise/quantisation steps of zero "
+                    f"(noise {step:.2g}, step {q:.2g}): a sensor that is all but dead",
+                    c,
+                )
+            )
             continue
         saturated = _saturated(y, peak, q)
         if saturated is not None:
@@ -220,8 +262,14 @@ def check_recording(recording: Recording, model: Model) -> list[Finding]:
         if source is not None and source in recording.channels:
             cos = _cos(np.asarray(recording[source], float), y)
             if cos < -0.5:
-                out.append(Finding("reversed", WARNING, f"{c} opposes {source} (cos {cos:+.2f}) where the model says it follows it: "
-                                                        "wired or signed in reverse?", c))  # fmt: skip
+                out.append(
+                    Finding(
+                        "reversed",
+                        WARNING,
+                        f"{c} opposes {source} (cos {cos:+.2f}) where the model says it follows it: wired or signed in reverse?",
+                        c,
+                    )
+                )
     return out + input_findings(recording, model, moving)
 
 
@@ -255,8 +303,14 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
     )  # the model's parameters (a local one: the first recording's)
     for name, tau in result.model.time_constants(values).items():
         if np.isfinite(tau) and dt > tau:
-            out.append(Finding("slow-rate", WARNING, f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: "
-                                                     f"{name.split('/')[0]} cannot be resolved at this rate"))  # fmt: skip
+            out.append(
+                Finding(
+                    "slow-rate",
+                    WARNING,
+                    f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: "
+                    f"{name.split('/')[0]} cannot be resolved at this rate",
+                )
+            )
     if fits is None:
         fits = channel_fit(result, rec)
     for c, v in fits.items():

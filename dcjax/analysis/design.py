@@ -36,15 +36,22 @@ import optax
 from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..io.recording import Recording
-from ..models import DiscreteModel, Model, get_model
-from ..simulation.integrators import RK4
-from ..simulation.objectives import simulate
-from ..simulation.problem import Problem, make_problem
+from ..models import Model, get_model
+from ..simulation.problem import Problem
+from .information import (
+    criterion_value,
+    information,
+    input_channels,
+    null_parameters,
+    predicted_stderr,
+    simulate_jit,
+    template_problem,
+    with_input,
+)
 
 OBSERVATION_PREFIXES = ("y0_", "offset_", "delay_")  # a fit's observation parameters (`dcjax.Observation`)
 
 DEFAULT_NOISE = 0.01  # sigma_c as a fraction of the channel's peak where no fit residual says otherwise
-NULL_TOL = 1e-12  # an eigenvalue of the scaled information below this fraction of the largest: numerically zero, not identifiable
 
 
 @dataclasses.dataclass
@@ -68,93 +75,6 @@ class Design:
     def relative_stderr(self) -> dict[str, float]:
         """Standard errors over each parameter's scale (its value, or the scale given for one at 0)."""
         return {n: self.stderr[n] / self.scale[n] for n in self.free}
-
-
-def input_channels(model: Model, t: np.ndarray, u, given: Mapping | None = None, inputs: Sequence[str] | None = None) -> dict:
-    """Every input of `model` on the grid `t`: the designed `inputs` (default the model's inputs
-    not in `given`) from `u` ((N,) for one, (N, D) for D), the others from `given` (a constant or
-    (N,) samples; an input in neither: 0)."""
-    given = dict(given or {})
-    names = tuple(inputs) if inputs is not None else tuple(c for c in model.inputs if c not in given)
-    u = np.asarray(u, float).reshape(len(t), -1)
-    if u.shape[1] != len(names):
-        raise ConfigError(f"inputs: {len(names)} designed input(s) ({', '.join(names)}), got {u.shape[1]} column(s)")
-    chans = {c: np.broadcast_to(np.asarray(given.get(c, 0.0), float), t.shape).copy() for c in model.inputs}
-    chans.update({c: u[:, k] for k, c in enumerate(names)})
-    return chans
-
-
-def template_problem(model: Model, params: dict[str, float], t: np.ndarray, u, limit: float | None, given: Mapping | None = None,
-                     inputs: Sequence[str] | None = None) -> Problem:  # fmt: skip
-    """A `Problem` on the grid `t` with the inputs of `input_channels` (default: `u` the model's
-    first input, the others 0) and the states starting at 0; the measured channels are those
-    simulated at `params`."""
-    chans = input_channels(model, t, u, given, inputs if inputs is not None or given else model.inputs[:1])
-    for s in model.outputs:  # placeholders (replaced below): zero initial state, a non-zero peak for make_problem
-        chans[s] = np.zeros_like(t)
-        chans[s][-1] = 1.0
-    rec = Recording(t=t, channels=chans, limit=limit)
-    prob = make_problem(rec, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
-    x = jnp.asarray([params[n] for n in model.names])
-    sim = _simulate(x, prob)
-    return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])
-
-
-def with_input(prob: Problem, u: jax.Array, columns: Sequence[int] = (0,)) -> Problem:
-    """The problem with its inputs `columns` replaced by `u` ((N,) for one, (N, D) for D)."""
-    u = u.reshape(u.shape[0], -1)
-    cols = np.asarray(columns)
-    u_start = prob.u_start.at[:, cols].set(u[:-1])
-    u_end = prob.u_end.at[:, cols].set(u[1:])
-    prob = dataclasses.replace(prob, steady=tuple(j for j in prob.steady if j not in cols))  # designed: read every step
-    return eqx.tree_at(lambda p: (p.u_start, p.u_end), prob, (u_start, u_end))
-
-
-def information(prob: Problem, x: jax.Array, free: jax.Array, sigma: jax.Array, scale: jax.Array | None = None) -> jax.Array:
-    """F (F x F) of the scaled free parameters theta_j = x_j + scale_j delta_j (default scale
-    |x_j|: relative parameters): sum over samples and channels of s s^T / sigma^2, s = dy/d delta."""
-    outs = jnp.asarray(prob.model.output_index)
-    scale = jnp.abs(x[free]) if scale is None else scale
-
-    def y_of(delta):
-        xx = x.at[free].add(scale * delta)
-        return simulate(xx, prob)[:, outs] / sigma  # (N, C)
-
-    s = jax.jacfwd(y_of)(jnp.zeros(free.shape[0], x.dtype))  # (N, C, F)
-    s = s.reshape(-1, s.shape[-1])
-    return s.T @ s
-
-
-def criterion_value(F: jax.Array, criterion: str, weights: jax.Array) -> jax.Array:
-    """What the design minimizes: -log det F ("d"), sum_j (F^-1)_jj ("a"), or for named
-    parameters sum_j w_j log (F^-1)_jj ("names": every named parameter's relative variance
-    counts by its factor of improvement, so a small one is not sacrificed to a large one)."""
-    reg = 1e-12 * jnp.trace(F) / F.shape[0] * jnp.eye(F.shape[0])
-    if criterion == "d":
-        return -jnp.linalg.slogdet(F + reg)[1]
-    var = jnp.diag(jnp.linalg.inv(F + reg))
-    if criterion == "a":
-        return jnp.sum(var)
-    return jnp.sum(weights * jnp.log(jnp.maximum(var, 1e-300)))
-
-
-def predicted_stderr(F: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """Physical standard errors from the information of the scaled parameters; a parameter in a
-    direction the information does not see (eigenvalue <= NULL_TOL x the largest) gets inf."""
-    w, v = np.linalg.eigh(np.asarray(F, float))
-    seen = w > NULL_TOL * max(float(w.max()), 1e-300)
-    var = np.einsum("jk,k,jk->j", v, np.where(seen, 1.0 / np.where(seen, w, 1.0), 0.0), v)
-    hidden = np.any((np.abs(v) > 1e-6) & ~seen[None, :], axis=1)
-    return np.where(hidden, np.inf, np.sqrt(np.maximum(var, 0.0)) * np.abs(scale))
-
-
-def null_parameters(F: np.ndarray, names: tuple[str, ...]) -> list[str]:
-    """Parameters that dominate a null direction of F (the structure hides them, whatever the input)."""
-    w, v = np.linalg.eigh(np.asarray(F, float))
-    out = []
-    for k in np.flatnonzero(w <= NULL_TOL * max(w.max(), 1e-300)):
-        out += [names[j] for j in np.flatnonzero(np.abs(v[:, k]) > 0.3) if names[j] not in out]
-    return out
 
 
 def design_input(
@@ -213,12 +133,14 @@ def design_input(
     crit = criterion if criterion in ("d", "a") else "names"
     z0 = _starts(segments, len(names), starts, seed)
     columns = tuple(m.inputs.index(c) for c in names)
-    loss = _Criterion(base, x, free, sigma, sc, jnp.asarray(weights), None, crit, segments, per, tuple(map(float, lo)), tuple(map(float, hi)),
-                      columns)  # fmt: skip
+    loss = _Criterion(
+        base, x, free, sigma, sc, jnp.asarray(weights), None, crit, segments, per, tuple(map(float, lo)), tuple(map(float, hi)), columns
+    )
     us = [_on_grid(b, n, "baselines: each input", len(names)).reshape(n, len(names)) for b in baselines]
     if us:  # the search minimises the largest log variance ratio to the baselines' best, from each baseline's levels
-        loss = eqx.tree_at(lambda c: c.reference, loss, jnp.min(_log_variances(loss, jnp.asarray(np.stack(us))), axis=0),
-                           is_leaf=lambda v: v is None)  # fmt: skip
+        loss = eqx.tree_at(
+            lambda c: c.reference, loss, jnp.min(_log_variances(loss, jnp.asarray(np.stack(us))), axis=0), is_leaf=lambda v: v is None
+        )
         levels = np.array([np.clip((u[::per][:segments] - lo) / (hi - lo), 0.0, 1.0) for u in us])
         z0 = jnp.concatenate([jnp.asarray(levels), z0])[: max(starts, len(us))]
     zs, fs = _optimize(loss, z0, int(steps), 0.02)
@@ -318,7 +240,6 @@ def _on_grid(u, n: int, what: str, d: int | None = None) -> np.ndarray:
 
 
 _information = filter_jit(information)
-_simulate = filter_jit(simulate)  # the eager calls: one compiled program per shape, not a new scan each call
 
 
 class _Criterion(eqx.Module):
@@ -433,16 +354,33 @@ def _starts(segments: int, inputs: int, starts: int, seed: int) -> jax.Array:
     full on, on for 40 % then off (a coast-down), a square wave (a quarter period later for each
     further input, so no two inputs start alike), then random levels."""
     k = np.arange(segments)[:, None] + np.arange(inputs)[None, :]
-    z = [np.full((segments, inputs), 0.5), np.ones((segments, inputs)), np.tile((k[:, :1] < max(1, (2 * segments) // 5)).astype(float), (1, inputs)),
-         (k % 4 < 2).astype(float)]  # fmt: skip
+    z = [
+        np.full((segments, inputs), 0.5),
+        np.ones((segments, inputs)),
+        np.tile((k[:, :1] < max(1, (2 * segments) // 5)).astype(float), (1, inputs)),
+        (k % 4 < 2).astype(float),
+    ]
     rng = np.random.default_rng(seed)
     while len(z) < max(starts, 1):
         z.append(rng.uniform(0.0, 1.0, (segments, inputs)))
     return jnp.asarray(np.array(z[: max(starts, 1)]))
 
 
-def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, value, hold, scale: dict[str, float], given=None,
-              inputs: Sequence[str] | None = None) -> Design:  # fmt: skip
+def summarize(
+    m: Model,
+    params,
+    t,
+    u,
+    i_limit,
+    free_names,
+    sigma,
+    criterion,
+    value,
+    hold,
+    scale: dict[str, float],
+    given=None,
+    inputs: Sequence[str] | None = None,
+) -> Design:
     """The `Design` of the designed inputs `u` ((N,) or (N, D); default the model's first input)
     on grid `t`, the other inputs `given`: responses, information, predicted errors."""
     given = dict(given or {})
@@ -454,10 +392,15 @@ def summarize(m: Model, params, t, u, i_limit, free_names, sigma, criterion, val
     sc = np.array([scale[k] for k in free_names])
     F = np.asarray(_information(prob, x, free, sigma, jnp.asarray(sc)))
     se = predicted_stderr(F, sc)
-    sim = np.asarray(_simulate(x, prob))
+    sim = np.asarray(simulate_jit(x, prob))
     constants = {c: float(v) for c, v in given.items() if np.ndim(v) == 0}
-    rec = Recording(t=t, channels={**{c: v for c, v in chans.items() if c not in constants}, **{s: sim[:, k] for k, s in enumerate(m.states)}},
-                    limit=i_limit, name="design", constants=constants or None)  # fmt: skip
+    rec = Recording(
+        t=t,
+        channels={**{c: v for c, v in chans.items() if c not in constants}, **{s: sim[:, k] for k, s in enumerate(m.states)}},
+        limit=i_limit,
+        name="design",
+        constants=constants or None,
+    )
     per = max(1, int(round(hold / (t[1] - t[0]))))
     levels = np.column_stack([chans[c] for c in names])[::per][: max(1, (len(t) - 1) // per)]
     return Design(
@@ -495,5 +438,18 @@ def evaluate_input(design: Design, model: Model | str | None, u, t: np.ndarray |
         u = np.column_stack([np.asarray(u[c], float) for c in names])
     else:
         given = design.given
-    return summarize(m, design.params, t, u, design.recording.limit, design.free, sigma, design.criterion, math.nan, design.hold,
-                     design.scale, given, names)  # fmt: skip
+    return summarize(
+        m,
+        design.params,
+        t,
+        u,
+        design.recording.limit,
+        design.free,
+        sigma,
+        design.criterion,
+        math.nan,
+        design.hold,
+        design.scale,
+        given,
+        names,
+    )

@@ -55,8 +55,17 @@ def write_design(design: Design, baselines: dict[str, Design], folder, model) ->
     folder.mkdir(parents=True, exist_ok=True)
     rec = design.recording
     columns = [c for c in m.inputs if c in rec.channels]  # designed and kept inputs (constants: design.json)
-    write_atomic(folder / "input.csv", lambda tmp: np.savetxt(tmp, np.column_stack([rec.t, *[rec[c] for c in columns]]), delimiter=",",
-                                                               header=",".join(["t", *columns]), comments="", fmt="%.10g"))  # fmt: skip
+    write_atomic(
+        folder / "input.csv",
+        lambda tmp: np.savetxt(
+            tmp,
+            np.column_stack([rec.t, *[rec[c] for c in columns]]),
+            delimiter=",",
+            header=",".join(["t", *columns]),
+            comments="",
+            fmt="%.10g",
+        ),
+    )
 
     def errors(d: Design):
         return {k: {"stderr": d.stderr[k], "relative": d.relative_stderr()[k]} for k in d.free}

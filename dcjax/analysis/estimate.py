@@ -396,8 +396,19 @@ def initial_estimate(
         v = float(theta[k])
         value = v if np.isfinite(v) and (v >= 0 or not nonneg[k]) else None
         se = float(stderr[k]) if np.isfinite(stderr[k]) else None
-        out.append(Parameter(n, value=value, min=lo, max=hi, unit=m.units.get(n, ""), precision=b.precision, stderr=se, positive=b.positive,
-                             scale=b.scale))  # fmt: skip
+        out.append(
+            Parameter(
+                n,
+                value=value,
+                min=lo,
+                max=hi,
+                unit=m.units.get(n, ""),
+                precision=b.precision,
+                stderr=se,
+                positive=b.positive,
+                scale=b.scale,
+            )
+        )
     return Parameters(out)
 
 

@@ -107,9 +107,11 @@ class Posterior:
                 row += f" [{a:12.6g}, {b:12.6g}]" if np.isfinite(a) and np.isfinite(b) else f" {'-':>27}"
             lines.append(row + f" {self.rhat[n]:6.3f} {self.ess_bulk[n]:8.0f} {self.ess_tail[n]:8.0f}")
         c, d = self.draws.shape[:2]
-        lines.append(f"{c} chains x {d} draws (NUTS): {self.divergences} divergent, {self.steps:.1f} leapfrog steps a draw, "
-                     f"acceptance {self.acceptance:.2f}; warmup {self.wall['warmup']:.1f} s, sampling {self.wall['sampling']:.1f} s "
-                     f"({self.ess_per_second:.1f} bulk ESS/s, the least over the parameters)")  # fmt: skip
+        lines.append(
+            f"{c} chains x {d} draws (NUTS): {self.divergences} divergent, {self.steps:.1f} leapfrog steps a draw, "
+            f"acceptance {self.acceptance:.2f}; warmup {self.wall['warmup']:.1f} s, sampling {self.wall['sampling']:.1f} s "
+            f"({self.ess_per_second:.1f} bulk ESS/s, the least over the parameters)"
+        )
         noise = ", ".join(f"{k} {v:.3g}" for k, v in self.noise.items())
         lines.append(f"likelihood: {self.likelihood}, noise scale per channel (from the residuals at the optimum): {noise}")
         own = "".join(f", {n} {p}" for n, p in self.priors.items())
@@ -128,12 +130,26 @@ class Posterior:
         write_atomic(path, write)
 
     def _savez(self, f, result_sha256) -> None:
-        np.savez(f, result_sha256=np.array(result_sha256 or self.result_sha256 or ""), draws=self.draws, names=np.array(self.names), rhat=np.array([self.rhat[n] for n in self.names]),
-                 ess_bulk=np.array([self.ess_bulk[n] for n in self.names]), ess_tail=np.array([self.ess_tail[n] for n in self.names]),
-                 optimum=np.array([self.optimum[n] for n in self.names]), divergences=self.divergences, seed=self.seed,
-                 steps=self.steps, acceptance=self.acceptance, wall=np.array([self.wall["warmup"], self.wall["sampling"]]),
-                 likelihood=self.likelihood, noise_names=np.array(list(self.noise)), noise=np.array(list(self.noise.values())),
-                 prior_names=np.array(list(self.priors), dtype=str), priors=np.array(list(self.priors.values()), dtype=str))  # fmt: skip
+        np.savez(
+            f,
+            result_sha256=np.array(result_sha256 or self.result_sha256 or ""),
+            draws=self.draws,
+            names=np.array(self.names),
+            rhat=np.array([self.rhat[n] for n in self.names]),
+            ess_bulk=np.array([self.ess_bulk[n] for n in self.names]),
+            ess_tail=np.array([self.ess_tail[n] for n in self.names]),
+            optimum=np.array([self.optimum[n] for n in self.names]),
+            divergences=self.divergences,
+            seed=self.seed,
+            steps=self.steps,
+            acceptance=self.acceptance,
+            wall=np.array([self.wall["warmup"], self.wall["sampling"]]),
+            likelihood=self.likelihood,
+            noise_names=np.array(list(self.noise)),
+            noise=np.array(list(self.noise.values())),
+            prior_names=np.array(list(self.priors), dtype=str),
+            priors=np.array(list(self.priors.values()), dtype=str),
+        )
 
     @classmethod
     def load(cls, path) -> "Posterior":
@@ -154,12 +170,22 @@ class Posterior:
             return d[key].item() if key in d else default
 
         wall = d["wall"] if "wall" in d else (np.nan, np.nan)
-        post = cls(names=names, draws=draws, optimum=named("optimum"), rhat=named("rhat"), ess_bulk=named("ess_bulk"),
-                   ess_tail=named("ess_tail"), divergences=int(scalar("divergences")), steps=float(scalar("steps")),
-                   acceptance=float(scalar("acceptance")), likelihood=str(scalar("likelihood")),
-                   noise=dict(zip(map(str, d["noise_names"]), map(float, d["noise"]))),
-                   wall={"warmup": float(wall[0]), "sampling": float(wall[1])}, seed=int(scalar("seed")),
-                   priors=dict(zip(map(str, d["prior_names"]), map(str, d["priors"]))) if "priors" in d else {})  # fmt: skip
+        post = cls(
+            names=names,
+            draws=draws,
+            optimum=named("optimum"),
+            rhat=named("rhat"),
+            ess_bulk=named("ess_bulk"),
+            ess_tail=named("ess_tail"),
+            divergences=int(scalar("divergences")),
+            steps=float(scalar("steps")),
+            acceptance=float(scalar("acceptance")),
+            likelihood=str(scalar("likelihood")),
+            noise=dict(zip(map(str, d["noise_names"]), map(float, d["noise"]))),
+            wall={"warmup": float(wall[0]), "sampling": float(wall[1])},
+            seed=int(scalar("seed")),
+            priors=dict(zip(map(str, d["prior_names"]), map(str, d["priors"]))) if "priors" in d else {},
+        )
         return dataclasses.replace(post, result_sha256=str(d["result_sha256"]) or None if "result_sha256" in d else None)
 
 
@@ -270,8 +296,14 @@ def _warmup(keys, starts, likelihood: JointProblem, noise: NoiseModel, space: Sp
         def logdensity(e):
             return log_posterior(e, likelihood, noise, space, white, prior)
 
-        adapt = blackjax.window_adaptation(blackjax.nuts, logdensity, is_mass_matrix_diagonal=False, target_acceptance_rate=TARGET_ACCEPTANCE,
-                                           integrator=reflecting_verlet(*white.walls()), adaptation_info_fn=get_filter_adapt_info_fn())  # fmt: skip
+        adapt = blackjax.window_adaptation(
+            blackjax.nuts,
+            logdensity,
+            is_mass_matrix_diagonal=False,
+            target_acceptance_rate=TARGET_ACCEPTANCE,
+            integrator=reflecting_verlet(*white.walls()),
+            adaptation_info_fn=get_filter_adapt_info_fn(),
+        )
         (state, params), _ = adapt.run(key, start, num_steps=steps)  # pyright: ignore[reportCallIssue]
         return state, params
 
@@ -298,9 +330,16 @@ def _draw(
 
 
 def sample(
-    x, target: JointProblem, space: Space, loss: Loss, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0,
+    x,
+    target: JointProblem,
+    space: Space,
+    loss: Loss,
+    draws: int = 1000,
+    chains: int = 4,
+    warmup: int = 1000,
+    seed: int = 0,
     priors: "Mapping[str, Prior | str] | None" = None,
-) -> Posterior:  # fmt: skip
+) -> Posterior:
     """NUTS draws of the free entries of search vector `x` (the fit's optimum) under `loss`'s
     likelihood and `space`'s prior (`priors`: name -> `Prior` or spec, replacing the uniform one
     within the range); `seed` fixes every bit. The chains run in one program, split over the

@@ -78,8 +78,11 @@ def _add_data_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--units", default=None, help="channel=unit pairs, e.g. for the DC motor t=ms,i_a=mA,omega=rpm (converted to SI)")
     g.add_argument("--delimiter", default=None, help="',', ';', 'tab' or 'whitespace' (default: detected)")
     g.add_argument("--decimal", default=".", help="decimal separator, '.' or ','")
-    g.add_argument("--drop-nan", action="store_true", help="drop the rows with a NaN/inf or an empty field in a channel read, "
-                   "with a one-line count (default: such a row is an error)")  # fmt: skip
+    g.add_argument(
+        "--drop-nan",
+        action="store_true",
+        help="drop the rows with a NaN/inf or an empty field in a channel read, with a one-line count (default: such a row is an error)",
+    )
     g.add_argument("--window", default=None, help="keep T0:T1 (seconds)")
     g.add_argument("--every", type=int, default=None, help="keep every K-th sample")
     g.add_argument("--trim", action="store_true", help="cut the samples before the model's first input is switched on (the DC motor: u_a)")
@@ -110,42 +113,77 @@ def _add_experiment_options(f: argparse.ArgumentParser) -> None:
     g = f.add_argument_group("the experiment: loss, initial state, per-recording parameters, sensors")
     g.add_argument("--loss", default=None, help="sse (default: the paper's eq. 24/27), l1 (mean absolute error) or huber:DELTA")
     g.add_argument(
-        "--normalize", default=None, choices=["peak", "none"],
+        "--normalize",
+        default=None,
+        choices=["peak", "none"],
         help="peak (default): residuals over each channel's peak; none: raw units, a joint fit pooled by sample count",
-    )  # fmt: skip
+    )
     g.add_argument(
-        "--initial", default=None,
+        "--initial",
+        default=None,
         help="initial states, STATE=SPEC pairs: a number, measured (default where measured), derivative (default for a "
         "derivative state) or fit (a free y0_STATE per recording), e.g. for the DC motor omega=fit",
-    )  # fmt: skip
+    )
     g.add_argument(
-        "--local", default=None,
+        "--local",
+        default=None,
         help="parameters with one value per recording of a joint fit, e.g. for the DC motor Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
-    )  # fmt: skip
-    g.add_argument("--hold", default=None, help="how an input acts between its samples, INPUT=linear|zoh pairs (default linear, "
-                   "eq. 29; zoh: held until the next sample, as a drive's PWM updated once per sample), e.g. for the DC motor u_a=zoh")  # fmt: skip
-    g.add_argument("--measure", default=None, help="the states compared with the recording (default: the model's measured states), "
-                   "e.g. for the DC motor with only its speed logged omega; a column named after another state still gives its initial state")  # fmt: skip
-    g.add_argument("--offset", default=None, help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "
-                   "the peak; --bound offset_CH=LO:HI), e.g. for the DC motor i_a")  # fmt: skip
-    g.add_argument("--delay", default=None, help="inputs with a free delay delay_IN in seconds (range 0..10 samples; "
-                   "--bound delay_IN=LO:HI), e.g. for the DC motor u_a")  # fmt: skip
+    )
+    g.add_argument(
+        "--hold",
+        default=None,
+        help="how an input acts between its samples, INPUT=linear|zoh pairs (default linear, "
+        "eq. 29; zoh: held until the next sample, as a drive's PWM updated once per sample), e.g. for the DC motor u_a=zoh",
+    )
+    g.add_argument(
+        "--measure",
+        default=None,
+        help="the states compared with the recording (default: the model's measured states), "
+        "e.g. for the DC motor with only its speed logged omega; a column named after another state still gives its initial state",
+    )
+    g.add_argument(
+        "--offset",
+        default=None,
+        help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "
+        "the peak; --bound offset_CH=LO:HI), e.g. for the DC motor i_a",
+    )
+    g.add_argument(
+        "--delay",
+        default=None,
+        help="inputs with a free delay delay_IN in seconds (range 0..10 samples; --bound delay_IN=LO:HI), e.g. for the DC motor u_a",
+    )
 
 
 def _add_result_options(p: argparse.ArgumentParser, data: bool = False) -> None:
     """The options of a command that reads a saved result (and where `data`, its recordings)."""
-    p.add_argument("--model", default=None, help="the fit's model where it is not built in, path/to/file.py:Name or package.module:attr "
-                   "(a result file names it, but dcjax imports no code on a file's word)")  # fmt: skip
+    p.add_argument(
+        "--model",
+        default=None,
+        help="the fit's model where it is not built in, path/to/file.py:Name or package.module:attr "
+        "(a result file names it, but dcjax imports no code on a file's word)",
+    )
     if data:
-        p.add_argument("--data", dest="data_files", nargs="+", default=None, metavar="FILE",
-                       help="the fitted recordings (default: the files the result names, where their bytes are the ones fitted)")  # fmt: skip
-    p.add_argument("--allow-changed-data", action="store_true",
-                   help="read a data file the result names even where it changed since the fit (its sha256 differs), with a warning")  # fmt: skip
+        p.add_argument(
+            "--data",
+            dest="data_files",
+            nargs="+",
+            default=None,
+            metavar="FILE",
+            help="the fitted recordings (default: the files the result names, where their bytes are the ones fitted)",
+        )
+    p.add_argument(
+        "--allow-changed-data",
+        action="store_true",
+        help="read a data file the result names even where it changed since the fit (its sha256 differs), with a warning",
+    )
 
 
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--overwrite", action="store_true", help="replace an earlier run's files in --out (default: keep them and write "
-                   "to OUT-2, OUT-3, ..., with a note)")  # fmt: skip
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an earlier run's files in --out (default: keep them and write to OUT-2, OUT-3, ..., with a note)",
+    )
 
 
 def _add_design_parser(sub) -> None:
@@ -157,8 +195,12 @@ def _add_design_parser(sub) -> None:
     d.add_argument("--umin", type=float, default=None, help="lowest level of every designed input (in its unit, e.g. V)")
     d.add_argument("--umax", type=float, default=None, help="highest level of every designed input")
     d.add_argument("--range", default=None, help="a designed input's own range, NAME=LO:HI pairs over --umin/--umax, e.g. uq=-5:5,ud=-2:2")
-    d.add_argument("--keep", default=None, help="inputs not designed but kept as the fitted recording has them, e.g. ud "
-                   "(every other input that is not a constant is designed)")  # fmt: skip
+    d.add_argument(
+        "--keep",
+        default=None,
+        help="inputs not designed but kept as the fitted recording has them, e.g. ud "
+        "(every other input that is not a constant is designed)",
+    )
     d.add_argument(
         "--const", default=None, help="inputs constant in the designed test, e.g. pp=4 (default: the fitted recording's constants)"
     )
@@ -174,8 +216,12 @@ def _add_design_parser(sub) -> None:
     d.add_argument(
         "--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. for the DC motor J,Tla,Tlb,Tlc"
     )
-    d.add_argument("--noise", default=None, help="noise std. dev. per channel, e.g. for the DC motor i_a=0.05,omega=0.5 (default: the fit's residuals, "
-                   "or 1%% of each channel's peak under a full step where the fit left none)")  # fmt: skip
+    d.add_argument(
+        "--noise",
+        default=None,
+        help="noise std. dev. per channel, e.g. for the DC motor i_a=0.05,omega=0.5 (default: the fit's residuals, "
+        "or 1%% of each channel's peak under a full step where the fit left none)",
+    )
     d.add_argument(
         "--baseline",
         action="append",
@@ -218,14 +264,22 @@ def _add_saved_parsers(sub) -> None:
     m.add_argument("--out", default="out", help="output folder for posterior.npz and corner.png")
     _add_overwrite(m)
     _add_result_options(m, data=True)
-    m.add_argument("--prior", action="append", default=None, metavar="NAME=SPEC",
-                   help="a parameter's own prior within its range instead of the uniform one: normal(MEAN,SD), lognormal(MEDIAN,SIGMA) "
-                        "or halfnormal(SD), e.g. for the DC motor --prior 'J=lognormal(1e-4,0.5)' (repeatable)")  # fmt: skip
+    m.add_argument(
+        "--prior",
+        action="append",
+        default=None,
+        metavar="NAME=SPEC",
+        help="a parameter's own prior within its range instead of the uniform one: normal(MEAN,SD), lognormal(MEDIAN,SIGMA) "
+        "or halfnormal(SD), e.g. for the DC motor --prior 'J=lognormal(1e-4,0.5)' (repeatable)",
+    )
     r = sub.add_parser("report", help="print the fit report of a saved result")
     r.add_argument("result", help="result.json of a fit")
     r.add_argument("--uncertainty", action="store_true", help="compute standard errors (needs the fitted data file)")
-    r.add_argument("--posterior", default=None,
-                   help="posterior.npz of `dcjax sample` to report beside (default: the one beside RESULT.json sampled from it, if any)")  # fmt: skip
+    r.add_argument(
+        "--posterior",
+        default=None,
+        help="posterior.npz of `dcjax sample` to report beside (default: the one beside RESULT.json sampled from it, if any)",
+    )
     _add_result_options(r, data=True)
 
 
@@ -246,8 +300,12 @@ def _parser() -> argparse.ArgumentParser:
         "--model", default="dc", help=f"{', '.join(MODELS)} (built in; dc the default), package.module:attr or path/to/file.py:Name"
     )
     PAPER_SEARCH, MANY_SEARCH = Search.paper(), Search.many()
-    f.add_argument("--method", default=None, help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...); default "
-                   f"{PAPER_SEARCH.method}, and {MANY_SEARCH.method} for a joint fit of >= {MANY_STEPS:,} samples (many recordings)")  # fmt: skip
+    f.add_argument(
+        "--method",
+        default=None,
+        help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...); default "
+        f"{PAPER_SEARCH.method}, and {MANY_SEARCH.method} for a joint fit of >= {MANY_STEPS:,} samples (many recordings)",
+    )
     f.add_argument(
         "--integrator",
         default=None,
@@ -258,8 +316,12 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument(
         "--runs", type=int, default=None, help=f"default {PAPER_SEARCH.runs}; {MANY_SEARCH.runs} for a joint fit of many recordings"
     )
-    f.add_argument("--budget", type=int, default=None, help=f"fitness evaluations per run; default {PAPER_SEARCH.budget:,}, "
-                   f"{MANY_SEARCH.budget:,} for a joint fit of many recordings")  # fmt: skip
+    f.add_argument(
+        "--budget",
+        type=int,
+        default=None,
+        help=f"fitness evaluations per run; default {PAPER_SEARCH.budget:,}, {MANY_SEARCH.budget:,} for a joint fit of many recordings",
+    )
     f.add_argument("--seed", type=int, default=0)
     f.add_argument("--weights", default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)")
     f.add_argument(
@@ -269,8 +331,12 @@ def _parser() -> argparse.ArgumentParser:
         "(default: the sidecar's 'bounds', else auto)",
     )
     f.add_argument("--bound", default=None, help="per-parameter bounds over the preset, e.g. for the DC motor Ra=0:10,J=0:0.1")
-    f.add_argument("--log", default=None, help="parameters searched on a log scale (uniform in decades; each needs a range above 0, "
-                   "e.g. --bound Tlc=1e-10:1e-5), e.g. for the DC motor Tlb,Tlc")  # fmt: skip
+    f.add_argument(
+        "--log",
+        default=None,
+        help="parameters searched on a log scale (uniform in decades; each needs a range above 0, "
+        "e.g. --bound Tlc=1e-10:1e-5), e.g. for the DC motor Tlb,Tlc",
+    )
     f.add_argument("--lower", default=None, help="all lower bounds, comma-separated in the model's order")
     f.add_argument("--upper", default=None, help="all upper bounds, comma-separated in the model's order")
     f.add_argument("--fix", default=None, help="known parameters, not searched, e.g. for the DC motor Ra=42.5,Tlc=0")
@@ -295,8 +361,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     f.add_argument("--out", default="out", help="output folder for result.json and fit.png")
     _add_overwrite(f)
-    f.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="progress bar on stderr (default: when stderr is a terminal)")  # fmt: skip
+    f.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
     _add_data_options(f)
     _add_saved_parsers(sub)
     return p

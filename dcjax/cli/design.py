@@ -37,13 +37,28 @@ def design_cmd(args) -> int:
         files[label if label not in files else f"{label} ({k + 1})"] = _baseline_input(f, t, names)
     try:
         design = design_input(
-            m, res.values(0), duration=args.duration, dt=args.dt, u_range=u_range, hold=args.hold, limit=limit, given=given,
-            criterion=args.criterion, noise=noise, fixed=tuple(res.fixed), scale=scales_from_fit(res), starts=args.starts,
-            steps=args.steps, seed=args.seed, baselines=list(files.values()),
-        )  # fmt: skip
+            m,
+            res.values(0),
+            duration=args.duration,
+            dt=args.dt,
+            u_range=u_range,
+            hold=args.hold,
+            limit=limit,
+            given=given,
+            criterion=args.criterion,
+            noise=noise,
+            fixed=tuple(res.fixed),
+            scale=scales_from_fit(res),
+            starts=args.starts,
+            steps=args.steps,
+            seed=args.seed,
+            baselines=list(files.values()),
+        )
     except np.linalg.LinAlgError as e:
-        raise ConfigError(f"design: the information matrix of the fitted parameters could not be decomposed ({e}): the fit's "
-                         "parameters give a simulation the design cannot differentiate; check the fit (dcjax report) or --noise") from None  # fmt: skip
+        raise ConfigError(
+            f"design: the information matrix of the fitted parameters could not be decomposed ({e}): the fit's "
+            "parameters give a simulation the design cannot differentiate; check the fit (dcjax report) or --noise"
+        ) from None
     top = np.array([u_range[c][1] for c in names])
     baselines = {"step to " + ", ".join(f"{c}={v:g}" for c, v in zip(names, top)): evaluate_input(design, m, np.tile(top, (len(t), 1)))}
     if rec is not None:
@@ -55,9 +70,11 @@ def design_cmd(args) -> int:
     ranges = ", ".join(f"{c} in [{u_range[c][0]:g}, {u_range[c][1]:g}]" for c in names)
     kept = [c for c in given if np.ndim(given[c]) > 0]
     consts = {c: v for c, v in given.items() if np.ndim(v) == 0}
-    print(f"designed input: {design.criterion}-criterion, {args.duration:g} s at {args.dt:g} s, {ranges}, hold {design.hold:g} s"
-          + (f"; kept as recording {rec.name}: {', '.join(kept)}" if kept and rec is not None else "")
-          + (f"; constants {', '.join(f'{c}={v:g}' for c, v in consts.items())}" if consts else ""))  # fmt: skip
+    print(
+        f"designed input: {design.criterion}-criterion, {args.duration:g} s at {args.dt:g} s, {ranges}, hold {design.hold:g} s"
+        + (f"; kept as recording {rec.name}: {', '.join(kept)}" if kept and rec is not None else "")
+        + (f"; constants {', '.join(f'{c}={v:g}' for c, v in consts.items())}" if consts else "")
+    )
     print("noise: " + ", ".join(f"{c} {v:.3g}" for c, v in design.noise.items()))
     width = max(22, *(len(k) + 1 for k in baselines))
     print(f"{'param':>6} {'design':>12}" + "".join(f" {k:>{width}}" for k in baselines) + "   (predicted relative std. errors)")
@@ -144,8 +161,10 @@ def _baseline_input(path: str, t, names: tuple[str, ...]):
         if not (np.all(np.isfinite(tb)) and np.all(np.isfinite(ub)) and np.all(np.diff(tb) > 0)):
             raise ConfigError(f"--baseline {path}: t must increase and t, {', '.join(names)} be finite")
         if tb[-1] - tb[0] < t[-1] - 1e-9 * (t[1] - t[0]):
-            print(f"note: --baseline {path} lasts {tb[-1] - tb[0]:g} s, shorter than the design's {t[-1]:g} s: its last level "
-                  f"{', '.join(f'{v:g}' for v in ub[-1])} is held to the end")  # fmt: skip
+            print(
+                f"note: --baseline {path} lasts {tb[-1] - tb[0]:g} s, shorter than the design's {t[-1]:g} s: its last level "
+                f"{', '.join(f'{v:g}' for v in ub[-1])} is held to the end"
+            )
         u = ub[np.clip(np.searchsorted(tb - tb[0], t + 1e-9 * (t[1] - t[0]), side="right") - 1, 0, len(tb) - 1)]
         return u[:, 0] if len(names) == 1 else u
     if len(names) == 1 and len(cols) == 1 and np.atleast_1d(table[cols[0]]).shape == t.shape:

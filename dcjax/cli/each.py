@@ -13,8 +13,11 @@ from ..fitting.summary import summary_rows, write_summary
 from .fitting import _file_params, _load, _no_finite_candidate, _prepared
 from .output import announce, each_products, file_names, output_folder, remove_earlier, save_fit
 
-COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
-                  "/jax/core/compile/backend_compile_duration")  # fmt: skip
+COMPILE_EVENTS = (
+    "/jax/core/compile/jaxpr_trace_duration",
+    "/jax/core/compile/jaxpr_to_mlir_module_duration",
+    "/jax/core/compile/backend_compile_duration",
+)
 
 
 class _Split:
@@ -124,11 +127,18 @@ def _fit_each_into(folder, args, model, options, split: "_Split") -> int:
             save_fit(result, folder, plot=plots == "each")
             at = result.at_bound()
             warn = [f.label for f in result.checks]
-            print(f"{label}: OF {result.of:.4e}" + (f"; at bound: {', '.join(at)}" if at else "")
-                  + (f"; checks: {' '.join(warn)}" if warn else "") + f"; wrote {folder}")  # fmt: skip
+            print(
+                f"{label}: OF {result.of:.4e}"
+                + (f"; at bound: {', '.join(at)}" if at else "")
+                + (f"; checks: {' '.join(warn)}" if warn else "")
+                + f"; wrote {folder}"
+            )
         share = 0.0 if isinstance(result, FailedFit) else float(result.timing.get("run_s", 0.0))  # its share of the batch's search
-        bar(_progress_line(k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result,
-                           share + time.perf_counter() - t_file))  # fmt: skip
+        bar(
+            _progress_line(
+                k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result, share + time.perf_counter() - t_file
+            )
+        )
     bar(None)
     rows = summary_rows(results, model)
     for k, row in enumerate(rows):

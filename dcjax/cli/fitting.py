@@ -115,14 +115,20 @@ def _options(args, model) -> dict:
         step = INTEGRATORS[args.integrator or "rk4"]
         integrator = AutoSubsteps(integrator=step()) if nd == "auto" else step(substeps=nd)
     if args.limit is not None and not model.has_limit:
-        raise ConfigError(f"--limit: model {model.name} clamps no state (it has no Model.limited_state or clamp of its own); its states are "
-                         f"{', '.join(model.states)}")  # fmt: skip
+        raise ConfigError(
+            f"--limit: model {model.name} clamps no state (it has no Model.limited_state or clamp of its own); its states are "
+            f"{', '.join(model.states)}"
+        )
     if args.local is not None and (args.each or len(args.data) < 2):
         raise ConfigError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
-    observation = Observation(get_loss(args.loss or "sse", args.normalize), parse_mapping(args.initial, "--initial"),
-                              _names(args.offset, "--offset"), _names(args.delay, "--delay"),
-                              None if args.measure is None else _names(args.measure, "--measure"),
-                              parse_mapping(args.hold, "--hold"))  # fmt: skip
+    observation = Observation(
+        get_loss(args.loss or "sse", args.normalize),
+        parse_mapping(args.initial, "--initial"),
+        _names(args.offset, "--offset"),
+        _names(args.delay, "--delay"),
+        None if args.measure is None else _names(args.measure, "--measure"),
+        parse_mapping(args.hold, "--hold"),
+    )
     return dict(integrator=integrator, observation=observation)
 
 
@@ -172,8 +178,10 @@ def _file_params(args, model, rec):
     local = set(_names(args.local, "--local"))
     unknown = [n for n in local if n not in model.names and not _observed(n)]
     if unknown:
-        raise ConfigError(f"--local: unknown parameter {', '.join(unknown)}; model {model.name} has {', '.join(model.names)} "
-                         "(and the fit's offset_CH, delay_IN)")  # fmt: skip
+        raise ConfigError(
+            f"--local: unknown parameter {', '.join(unknown)}; model {model.name} has {', '.join(model.names)} "
+            "(and the fit's offset_CH, delay_IN)"
+        )
     if local and len(recs) < 2:
         raise ConfigError("--local needs a joint fit of several recordings (each gets its own value)")
     fixed_all = _named_floats(args.fix, "--fix")
@@ -197,11 +205,28 @@ def _file_params(args, model, rec):
     out = []
     for k, n in enumerate(model.names):
         value = fixed.get(n, x0.get(n))
-        out.append(Parameter(n, value=value, min=float(lo[k]), max=float(hi[k]), vary=n not in fixed, unit=model.units.get(n, ""),
-                             precision=prec.get(n), local=n in local, scale="log" if n in log else "linear"))  # fmt: skip
+        out.append(
+            Parameter(
+                n,
+                value=value,
+                min=float(lo[k]),
+                max=float(hi[k]),
+                vary=n not in fixed,
+                unit=model.units.get(n, ""),
+                precision=prec.get(n),
+                local=n in local,
+                scale="log" if n in log else "linear",
+            )
+        )
     ranges = _named_ranges(args.bound, "--bound")
-    for n in dict.fromkeys([*(k for k in ranges if _observed(k)), *(k for k in fixed_all if _observed(k)),
-                            *(k for k in x0_all if _observed(k)), *(k for k in local if _observed(k))]):  # fmt: skip
+    for n in dict.fromkeys(
+        [
+            *(k for k in ranges if _observed(k)),
+            *(k for k in fixed_all if _observed(k)),
+            *(k for k in x0_all if _observed(k)),
+            *(k for k in local if _observed(k)),
+        ]
+    ):
         lo_n, hi_n = ranges.get(n, (float("-inf"), float("inf")))
         out.append(Parameter(n, value=fixed_all.get(n, x0_all.get(n)), min=lo_n, max=hi_n, vary=n not in fixed_all, local=n in local))
     return Parameters(out)
@@ -268,9 +293,11 @@ def _print_fit(result, recs, args, model, out):
         print(as_flags(note))
     if not result.observation.plain:
         o = result.observation
-        print(f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"
-              + (f"; initial {', '.join(f'{k}={v}' for k, v in o.initial.items())}" if o.initial else "")
-              + (f"; compared: {', '.join(o.measure)}" if o.measure is not None else ""))  # fmt: skip
+        print(
+            f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"
+            + (f"; initial {', '.join(f'{k}={v}' for k, v in o.initial.items())}" if o.initial else "")
+            + (f"; compared: {', '.join(o.measure)}" if o.measure is not None else "")
+        )
     w = max(6, *(len(n) for n in result.names))
     header = f"{'param':>{w}} {'unit':>7} {'identified':>22} {'lower':>10} {'upper':>10}" + (
         f" {'true':>14} {'rel. error':>11}" if truth else ""
@@ -316,8 +343,10 @@ def _no_finite_candidate(result) -> str | None:
 
     if np.any(np.isfinite(result.run_of)):
         return None
-    return (f"no run found parameters whose simulation is finite (every OF is inf, {result.nfev:,} evaluations): the model "
-            "blows up over the whole search range; check the bounds, the units and scales (--units, --scale) and the model")  # fmt: skip
+    return (
+        f"no run found parameters whose simulation is finite (every OF is inf, {result.nfev:,} evaluations): the model "
+        "blows up over the whole search range; check the bounds, the units and scales (--units, --scale) and the model"
+    )
 
 
 def fit_one(args, model, options) -> int:

@@ -8,10 +8,29 @@ import ast
 import re
 
 # a mapping or a sequence of the library -> the flag's NAME=VALUE pairs or comma-separated names
-PAIRS = {"units": "--units", "columns": "--columns", "scale": "--scale", "constants": "--const", "initial": "--initial",
-         "hold": "--hold", "offsets": "--offset", "delays": "--delay", "measure": "--measure", "weights": "--weights"}  # fmt: skip
-VALUES = {"dt": "--dt", "rate": "--rate", "delimiter": "--delimiter", "decimal": "--decimal", "model": "--model", "params": "--bounds",
-          "limit": "--limit", "window": "--window", "every": "--every"}  # fmt: skip
+PAIRS = {
+    "units": "--units",
+    "columns": "--columns",
+    "scale": "--scale",
+    "constants": "--const",
+    "initial": "--initial",
+    "hold": "--hold",
+    "offsets": "--offset",
+    "delays": "--delay",
+    "measure": "--measure",
+    "weights": "--weights",
+}
+VALUES = {
+    "dt": "--dt",
+    "rate": "--rate",
+    "delimiter": "--delimiter",
+    "decimal": "--decimal",
+    "model": "--model",
+    "params": "--bounds",
+    "limit": "--limit",
+    "window": "--window",
+    "every": "--every",
+}
 SWITCHES = {"drop_nan": "--drop-nan", "allow_changed_data": "--allow-changed-data", "trim": "--trim", "polish": "--polish"}
 CALLS = [
     (r"params\[['\"]?([\w\[\]]+?)['\"]?\]\.set\(min=([^,()]+), max=([^,()]+)\)", r"--bound \1=\2:\3"),

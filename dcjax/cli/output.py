@@ -33,8 +33,14 @@ class OutputFolder:
     and the caller removes what it replaces). A folder this object created and nothing was
     written into is removed again; temporary files a killed writer left are removed."""
 
-    def __init__(self, out: str | Path, earlier: Callable[[Path], list[Path]], overwrite: bool = False, what: str = "an earlier run",
-                 cleanup: list | None = None):  # fmt: skip
+    def __init__(
+        self,
+        out: str | Path,
+        earlier: Callable[[Path], list[Path]],
+        overwrite: bool = False,
+        what: str = "an earlier run",
+        cleanup: list | None = None,
+    ):
         self.cleanup = cleanup  # where given, `abandon` is on it while the folder is open (a signal handler calls it)
         self.asked = Path(out)
         self.earlier = earlier
@@ -180,8 +186,10 @@ def drop_sidecars(paths: list[str]) -> list[str]:
     stems = {(str(Path(p).parent), Path(p).stem) for p in paths if Path(p).suffix.lower() != ".json"}
     kept = [p for p in paths if not (Path(p).suffix.lower() == ".json" and (str(Path(p).parent), Path(p).stem) in stems)]
     if len(kept) < len(paths):
-        print(f"note: {len(paths) - len(kept)} sidecar file(s) (.json beside a data file of the same name) left out of the data",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"note: {len(paths) - len(kept)} sidecar file(s) (.json beside a data file of the same name) left out of the data",
+            file=sys.stderr,
+        )
     return kept
 
 

@@ -33,8 +33,21 @@ def _result(args):
     if not data:
         return load_result(args.result, model=model, allow_changed_data=allow)
     res = load_result(args.result, [], model=model)
-    as_fitted = argparse.Namespace(columns=None, units=None, scale=None, dt=None, rate=None, delimiter=None, decimal=".", const=None,
-                                   drop_nan=False, window=None, every=None, trim=False, limit=None)  # read in the fit's layout  # fmt: skip
+    as_fitted = argparse.Namespace(
+        columns=None,
+        units=None,
+        scale=None,
+        dt=None,
+        rate=None,
+        delimiter=None,
+        decimal=".",
+        const=None,
+        drop_nan=False,
+        window=None,
+        every=None,
+        trim=False,
+        limit=None,
+    )  # read in the fit's layout
     return load_result(args.result, [_load_like_fit(d, as_fitted, res) for d in data], model=model)
 
 
@@ -60,18 +73,25 @@ def _load_like_fit(data: str, args, res):
                 rec = _load(data, args, res.model, Reading(constants=fitted.constants))
             except ValueError:
                 raise e from None
-            print(f"note: {Path(data).name} is not in the fit's layout ({e.args[0].split('; ')[0].split(': ')[-1]}): read by its own "
-                  f"header ({', '.join(res.model.channels)}), without the fit's units and scales")  # fmt: skip
+            print(
+                f"note: {Path(data).name} is not in the fit's layout ({e.args[0].split('; ')[0].split(': ')[-1]}): read by its own "
+                f"header ({', '.join(res.model.channels)}), without the fit's units and scales"
+            )
     for c, peak_fit in (src.get("peaks") or {}).items():
         if c in rec.channels and peak_fit > 0:
             peak = float(np.max(np.abs(rec[c])))
             ratio = peak / peak_fit
             if not 0.1 <= ratio <= 10 and pulse_width(np.asarray(rec[c], float)) < 2:  # a short pulse, not a unit
-                warnings.warn(f"{rec.name}: the peak of {c} ({peak:.4g}, {ratio:.3g}x the fitted recording's) is a pulse shorter "
-                              "than two samples", stacklevel=2)  # fmt: skip
+                warnings.warn(
+                    f"{rec.name}: the peak of {c} ({peak:.4g}, {ratio:.3g}x the fitted recording's) is a pulse shorter than two samples",
+                    stacklevel=2,
+                )
             elif not 0.1 <= ratio <= 10:
-                warnings.warn(f"{rec.name}: the peak of {c} is {ratio:.3g}x the fitted recording's ({peak:.4g} vs {peak_fit:.4g}): "
-                              "a unit or scale slip? (--units, --scale)", stacklevel=2)  # fmt: skip
+                warnings.warn(
+                    f"{rec.name}: the peak of {c} is {ratio:.3g}x the fitted recording's ({peak:.4g} vs {peak_fit:.4g}): "
+                    "a unit or scale slip? (--units, --scale)",
+                    stacklevel=2,
+                )
     return rec
 
 
@@ -86,8 +106,9 @@ def simulate_cmd(args) -> int:
     table = np.column_stack([rec.t, *(rec[c] for c in m.inputs), *(rec[c] for c in m.outputs), sim])
     with output_folder(args, lambda f: [f / f"{stem}.csv"], f"an earlier {stem}.csv") as folder:
         out = announce(folder)
-        path = write_atomic(out / f"{stem}.csv", lambda tmp: np.savetxt(tmp, table, delimiter=",", header=",".join(cols), comments="",
-                                                                      fmt="%.17g"))  # fmt: skip
+        path = write_atomic(
+            out / f"{stem}.csv", lambda tmp: np.savetxt(tmp, table, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+        )
         res.plot(out / f"{stem}.png", recordings=[rec], convergence=False)
     print(f"wrote {path} and {out / f'{stem}.png'}")
     return 0
@@ -134,8 +155,10 @@ def sample_cmd(args) -> int:
         corner(post, out / "corner.png")
     bad = [n for n in post.names if not post.rhat[n] <= 1.01 or not post.ess_bulk[n] >= 400]
     if bad:
-        print(f"warning: R-hat above 1.01 or bulk ESS below 400 for {', '.join(bad)}: more --draws/--warmup, or a posterior "
-              "the sampler does not mix over (see corner.png)")  # fmt: skip
+        print(
+            f"warning: R-hat above 1.01 or bulk ESS below 400 for {', '.join(bad)}: more --draws/--warmup, or a posterior "
+            "the sampler does not mix over (see corner.png)"
+        )
     if post.divergences:
         print(f"warning: {post.divergences} divergent transitions: the draws may miss part of the posterior")
     print(f"wrote {out / 'posterior.npz'} and {out / 'corner.png'}")
@@ -154,8 +177,11 @@ def report_cmd(args) -> int:
     post = Posterior.load(path) if path.is_file() else None
     if post is not None and post.result_sha256 != file_sha256(args.result):
         if not args.posterior:  # the file beside it belongs to another result (or a result changed since): not this one's
-            print(f"note: {path} was not sampled from this result.json (another fit's, or the result changed): not reported; "
-                  "--posterior names a posterior to report anyway", file=sys.stderr)  # fmt: skip
+            print(
+                f"note: {path} was not sampled from this result.json (another fit's, or the result changed): not reported; "
+                "--posterior names a posterior to report anyway",
+                file=sys.stderr,
+            )
             post = None
         else:
             print(f"note: --posterior {path} was not sampled from this result.json", file=sys.stderr)

@@ -89,5 +89,9 @@ def _failed_or_raise(on_error: str, name: str, e: Exception, source, findings=No
 def failed(name: str, e: Exception, source: str | None, findings: list | None = None) -> FailedFit:
     """The `FailedFit` of a recording whose loading, checks or preparation raised `e`."""
     named = from_error(e)
-    return FailedFit(name=name, error=(str(e).splitlines() or [type(e).__name__])[0], source=source,
-                     checks=list(findings or []) + ([named] if named is not None else []))  # fmt: skip
+    return FailedFit(
+        name=name,
+        error=(str(e).splitlines() or [type(e).__name__])[0],
+        source=source,
+        checks=list(findings or []) + ([named] if named is not None else []),
+    )

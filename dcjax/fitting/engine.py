@@ -103,8 +103,13 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
         layout = setup.target.layout
         each = [(layout.model_x(x, r), layout.adjustments(x, r, p)) for r, p in enumerate(setup.problems)]
         refs = [reference_simulate_jit(xr, p, adj) for (xr, adj), p in zip(each, setup.problems)]
-        return {nd: max(simulation_error(xr, p, ref, adj) for (xr, adj), p, ref in zip(each, setup.with_integrator(kind(substeps=nd)).problems, refs))
-                for nd in nds}  # fmt: skip
+        return {
+            nd: max(
+                simulation_error(xr, p, ref, adj)
+                for (xr, adj), p, ref in zip(each, setup.with_integrator(kind(substeps=nd)).problems, refs)
+            )
+            for nd in nds
+        }
 
     current = [s.with_integrator(kind(substeps=1)) for s in setups]
     runs: list = [None] * len(setups)
@@ -116,8 +121,12 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
             runs[k] = res
         refit = []
         for k in pending if fitted < 3 else []:  # at most 3 rounds of choosing
-            values = dict(zip(current[k].space.names, map(float, np.asarray(current[k].space.to_physical(runs[k][0].best_x))[
-                int(np.argmin(np.asarray(runs[k][0].best_f)))])))  # fmt: skip
+            values = dict(
+                zip(
+                    current[k].space.names,
+                    map(float, np.asarray(current[k].space.to_physical(runs[k][0].best_x))[int(np.argmin(np.asarray(runs[k][0].best_f)))]),
+                )
+            )
             errors = errors_at(current[k], values, candidates)
             rounds[k].append({"fit_nd": nd[k], "errors": {str(c): v for c, v in errors.items()}})
             chosen = next((c for c in candidates if errors[c] <= auto.tol), None)
@@ -135,9 +144,16 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
     for k, setup in enumerate(current):
         result = make_result(setup, search, *runs[k])
         final = errors_at(setup, result.best_values, [nd[k]])[nd[k]]
-        info = {"tol": auto.tol, "max": auto.max_substeps, "chosen": nd[k], "converged": bool(final <= auto.tol), "reference_error": final,
-                "errors_at_nd1_fit": rounds[k][0]["errors"], "rounds": rounds[k],
-                "reference": "diffrax Dopri8, PID rtol 1e-10 atol 1e-12, jump_ts at the samples"}  # fmt: skip
+        info = {
+            "tol": auto.tol,
+            "max": auto.max_substeps,
+            "chosen": nd[k],
+            "converged": bool(final <= auto.tol),
+            "reference_error": final,
+            "errors_at_nd1_fit": rounds[k][0]["errors"],
+            "rounds": rounds[k],
+            "reference": "diffrax Dopri8, PID rtol 1e-10 atol 1e-12, jump_ts at the samples",
+        }
         out.append(dataclasses.replace(result, settings={**result.settings, "nd_auto": info}))  # a new result with the choice recorded
     return out
 
@@ -148,9 +164,15 @@ def settings_of(setup: Setup, search: Search) -> dict:
     # the weights used where they are not equal shares (given, or pooled by sample count)
     weighted = any(r.metadata.get("joint_weight") is not None for r in recs) or len(set(setup.joint_weights)) > 1
     start = setup.params.start
-    observed = {} if setup.observation.plain and setup.layout is None else {
-        **setup.observation.to_dict(), "names": list(space.names), "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),
-    }  # fmt: skip
+    observed = (
+        {}
+        if setup.observation.plain and setup.layout is None
+        else {
+            **setup.observation.to_dict(),
+            "names": list(space.names),
+            "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),
+        }
+    )
     log = {"log": [space.names[k] for k in space.log]} if space.log else {}  # searched on log(x)
     priors = {n: p.prior.spec for n, p in setup.params.items() if p.prior is not None and p.vary}
     return (

@@ -103,8 +103,10 @@ class Observation:
             if state not in model.states:
                 raise ConfigError(f"initial: unknown state {state!r}; model {model.name} has states {', '.join(model.states)}")
             if spec == "derivative" and state not in model.derivative_of:
-                raise ConfigError(f"initial: {state}=derivative needs a state that is the derivative of another (Model.derivative_of); "
-                                 f"model {model.name} has {dict(model.derivative_of) or 'none'}")  # fmt: skip
+                raise ConfigError(
+                    f"initial: {state}=derivative needs a state that is the derivative of another (Model.derivative_of); "
+                    f"model {model.name} has {dict(model.derivative_of) or 'none'}"
+                )
         bad = [c for c in self.offsets if c not in model.outputs]
         if bad:
             raise ConfigError(f"offset: {', '.join(bad)} is not a measured channel of model {model.name} ({', '.join(model.outputs)})")
@@ -144,11 +146,15 @@ class Observation:
         for s in noisy:
             level = f"{s}'s noise is {share[s]:.1e} of its range"
             if fits:
-                chosen[s] = (f"note: {level}: its initial value is fitted (y0_{s}, the first sample +- {START_SPREAD:g} noise sd); "
-                             f"initial={{{s!r}: 'measured'}} starts at the first sample")  # fmt: skip
+                chosen[s] = (
+                    f"note: {level}: its initial value is fitted (y0_{s}, the first sample +- {START_SPREAD:g} noise sd); "
+                    f"initial={{{s!r}: 'measured'}} starts at the first sample"
+                )
             else:
-                chosen[s] = (f"note: {level}, but it starts at its first sample ({count} initial values > {MAX_FITTED_STARTS}), "
-                             f"which biases the fit by about its noise; initial={{{s!r}: 'fit'}} fits it")  # fmt: skip
+                chosen[s] = (
+                    f"note: {level}, but it starts at its first sample ({count} initial values > {MAX_FITTED_STARTS}), "
+                    f"which biases the fit by about its noise; initial={{{s!r}: 'fit'}} fits it"
+                )
         initial = {**self.initial, **{s: "fit" for s in noisy}} if fits else dict(self.initial)
         return dataclasses.replace(self, initial=initial, chosen=chosen)
 
@@ -185,15 +191,24 @@ class Observation:
                 values = ", ".join(f"{derivative_at_start(r, src, s):.4g}" for r in recordings[:4]) + (
                     ", ..." if len(recordings) > 4 else ""
                 )
-                out.append(f"note: state {s} starts at the derivative of {src} at the first sample ({values}); from noisy samples "
-                           f"that is rough: initial={{{s!r}: 'fit'}} fits it, initial={{{s!r}: 0}} if the recording starts at rest")  # fmt: skip
+                out.append(
+                    f"note: state {s} starts at the derivative of {src} at the first sample ({values}); from noisy samples "
+                    f"that is rough: initial={{{s!r}: 'fit'}} fits it, initial={{{s!r}: 0}} if the recording starts at rest"
+                )
         return out
 
     def to_dict(self) -> dict:
         measure = {} if self.measure is None else {"measure": list(self.measure)}
         hold = {"hold": dict(self.hold)} if self.hold else {}
-        return {"loss": self.loss.spec, "normalize": self.loss.normalize, "initial": dict(self.initial),
-                "offsets": list(self.offsets), "delays": list(self.delays), **measure, **hold}  # fmt: skip
+        return {
+            "loss": self.loss.spec,
+            "normalize": self.loss.normalize,
+            "initial": dict(self.initial),
+            "offsets": list(self.offsets),
+            "delays": list(self.delays),
+            **measure,
+            **hold,
+        }
 
     @classmethod
     def from_settings(cls, settings: Mapping) -> "Observation":

@@ -64,8 +64,17 @@ def levenberg_marquardt(fn, y0: Float[Array, " F"], rtol: float = 1e-12, atol: f
     # The first pass of the loop linearizes at y0 (no step): the simulation's linearization is
     # traced once, inside the loop, not once before it and once in it (half the compile time).
     dim, m = y0.shape[0], jax.eval_shape(fn, y0).shape[0]
-    start = _LM(y0, jnp.zeros(m, y0.dtype), jnp.zeros((m, dim), y0.dtype), jnp.asarray(jnp.inf, y0.dtype), jnp.asarray(0.0, y0.dtype),
-                jnp.asarray(2.0), jnp.asarray(-1), jnp.asarray(False), jnp.asarray(False))  # fmt: skip
+    start = _LM(
+        y0,
+        jnp.zeros(m, y0.dtype),
+        jnp.zeros((m, dim), y0.dtype),
+        jnp.asarray(jnp.inf, y0.dtype),
+        jnp.asarray(0.0, y0.dtype),
+        jnp.asarray(2.0),
+        jnp.asarray(-1),
+        jnp.asarray(False),
+        jnp.asarray(False),
+    )
 
     def body(s: _LM) -> _LM:
         first = s.step < 0
@@ -84,11 +93,13 @@ def levenberg_marquardt(fn, y0: Float[Array, " F"], rtol: float = 1e-12, atol: f
         pick = lambda new, old: jnp.where(ok, new, old)
         converged = small | (ok & (cost_new == 0.0))
         stuck = ~jnp.all(jnp.isfinite(h)) | ~jnp.isfinite(mu)  # no step can be computed: nothing more to gain
-        stepped = _LM(pick(y_new, s.y), pick(r_new, s.r), pick(j_new, s.jac), pick(cost_new, s.cost), mu, nu, s.step + 1,
-                      converged | stuck, converged)  # fmt: skip
+        stepped = _LM(
+            pick(y_new, s.y), pick(r_new, s.r), pick(j_new, s.jac), pick(cost_new, s.cost), mu, nu, s.step + 1, converged | stuck, converged
+        )
         a0 = j_new.T @ j_new
-        started = _LM(s.y, r_new, j_new, cost_new, 1e-3 * jnp.max(jnp.diag(a0)), s.nu, jnp.asarray(0), ~jnp.isfinite(cost_new),
-                      jnp.asarray(False))  # fmt: skip
+        started = _LM(
+            s.y, r_new, j_new, cost_new, 1e-3 * jnp.max(jnp.diag(a0)), s.nu, jnp.asarray(0), ~jnp.isfinite(cost_new), jnp.asarray(False)
+        )
         return jax.tree.map(lambda x0, x1: jnp.where(first, x0, x1), started, stepped)
 
     end = jax.lax.while_loop(lambda s: ~s.done & (s.step < max_steps), body, start)

@@ -163,8 +163,11 @@ def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bo
             file = file if file.is_absolute() else path.parent / file
             why = _changed(f, file)
             if why is not None and (not allow_changed or why.startswith("is not")):
-                warnings.warn(f"{path.name}: its data file {file} {why}: loaded without it (give the recordings: "
-                              "recordings=[...]; a changed file: allow_changed_data=True)", stacklevel=3)  # fmt: skip
+                warnings.warn(
+                    f"{path.name}: its data file {file} {why}: loaded without it (give the recordings: "
+                    "recordings=[...]; a changed file: allow_changed_data=True)",
+                    stacklevel=3,
+                )
                 continue
             if why is not None:
                 warnings.warn(f"{path.name}: its data file {file} {why}; read anyway (allow_changed_data=True)", stacklevel=3)

@@ -165,10 +165,17 @@ class FitResult:
             recs = [r.replace(limit=float(self.settings["i_limit"])) for r in recs]
         obs, fitted = self.observation, self._fitted(recordings)
         return [
-            make_problem(r, self.integrator, self.weights, model=self.model, loss=obs.loss if loss is None else loss,
-                         initial=obs.initial_values(self.model, r, fitted), hold=dict(obs.hold))
+            make_problem(
+                r,
+                self.integrator,
+                self.weights,
+                model=self.model,
+                loss=obs.loss if loss is None else loss,
+                initial=obs.initial_values(self.model, r, fitted),
+                hold=dict(obs.hold),
+            )
             for r in recs
-        ]  # fmt: skip
+        ]
 
     def target(self, recordings=None, loss=None) -> JointProblem:
         """The objective over the search vector for `recordings` (default the fitted ones, with
@@ -223,8 +230,7 @@ class FitResult:
 
         x = np.array([self.best_values[n] for n in self.names])
         own = {n: p.prior for n, p in self.params.items() if p.prior is not None} | dict(priors or {})
-        return sample(x, self.target(), self.space, self.observation.loss, draws=draws, chains=chains, warmup=warmup, seed=seed,
-                      priors=own)  # fmt: skip
+        return sample(x, self.target(), self.space, self.observation.loss, draws=draws, chains=chains, warmup=warmup, seed=seed, priors=own)
 
     @property
     def uncertainties(self) -> "Uncertainty | None":
@@ -329,10 +335,20 @@ class FitResult:
                 se = float(u.se[n])  # pyright: ignore[reportAttributeAccessIssue]
                 se = se if np.isfinite(se) else None  # a null direction: no standard error
             out.append(
-                Parameter(n, value=self.best_values[n], min=float(b.lower[k]), max=float(b.upper[k]), vary=n not in self.fixed,
-                          unit=unit_of(n, self.model), precision=prec.get(n), stderr=se, local=base_name(n) in (self.settings.get("local") or ()),
-                          scale="log" if n in (self.settings.get("log") or ()) else "linear", prior=priors.get(n))
-            )  # fmt: skip
+                Parameter(
+                    n,
+                    value=self.best_values[n],
+                    min=float(b.lower[k]),
+                    max=float(b.upper[k]),
+                    vary=n not in self.fixed,
+                    unit=unit_of(n, self.model),
+                    precision=prec.get(n),
+                    stderr=se,
+                    local=base_name(n) in (self.settings.get("local") or ()),
+                    scale="log" if n in (self.settings.get("log") or ()) else "linear",
+                    prior=priors.get(n),
+                )
+            )
         return Parameters(out)
 
     @property
@@ -370,7 +386,7 @@ class FitResult:
                     "params": dict(zip(names, map(float, p))),
                     "fes": int(n),
                     "iterations": int(it),
-                }  # fmt: skip
+                }
                 | ({} if self.dups is None else {"dups": int(self.dups[r])})
                 for r, (o, p, n, it) in enumerate(zip(self.run_of, self.run_params, self.fes, self.iterations))
             ],
@@ -408,8 +424,10 @@ class FitResult:
         d = self.to_dict()
         if path is not None:
             folder = Path(path).parent
-            data = [dict(src, path=relative_to(src["path"], folder)) if isinstance(src, dict) and src.get("path") else src
-                    for src in d["settings"].get("data") or []]  # fmt: skip
+            data = [
+                dict(src, path=relative_to(src["path"], folder)) if isinstance(src, dict) and src.get("path") else src
+                for src in d["settings"].get("data") or []
+            ]
             d["settings"] = {**d["settings"], "data": data}
         if files:
             d["files"] = dict(files)

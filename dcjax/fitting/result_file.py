@@ -129,8 +129,10 @@ def model_name(record: Fields, builtin: Mapping) -> str:
     assert spec is not None
     if spec.lower() in builtin:
         return spec.lower()
-    raise ResultFileError(f"{record.path}: the result's model {spec!r} is not built in, and dcjax does not import code a result file "
-                          f"names: give it yourself as model={spec!r}")  # fmt: skip
+    raise ResultFileError(
+        f"{record.path}: the result's model {spec!r} is not built in, and dcjax does not import code a result file "
+        f"names: give it yourself as model={spec!r}"
+    )
 
 
 def integrator_name(record: Fields, builtin) -> str:
@@ -139,8 +141,10 @@ def integrator_name(record: Fields, builtin) -> str:
     assert spec is not None
     if spec.lower() in builtin:
         return spec.lower()
-    raise ResultFileError(f"{record.path}: settings.integrator {spec!r} is not built in ({', '.join(builtin)}), and dcjax does not "
-                          "import code a result file names: give it yourself (load_result(path, integrator=...))")  # fmt: skip
+    raise ResultFileError(
+        f"{record.path}: settings.integrator {spec!r} is not built in ({', '.join(builtin)}), and dcjax does not "
+        "import code a result file names: give it yourself (load_result(path, integrator=...))"
+    )
 
 
 def within_bounds(path: Path, values: Mapping[str, float], names, lower, upper, fixed: Mapping[str, float]) -> None:

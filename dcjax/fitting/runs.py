@@ -175,13 +175,26 @@ def _group_args(setups: list[Setup], targets: list, search: Search, pad: int):
         )
     dim = setups[0].space.dim
     k_max = max((s.starts.shape[0] for s in setups if s.starts is not None), default=0)
-    z0 = None if k_max == 0 else np.stack([np.full((k_max, dim), np.nan) if s.starts is None else
-                                           np.pad(s.starts, ((0, k_max - s.starts.shape[0]), (0, 0)), constant_values=np.nan)
-                                           for s in setups])  # fmt: skip
+    z0 = (
+        None
+        if k_max == 0
+        else np.stack(
+            [
+                np.full((k_max, dim), np.nan)
+                if s.starts is None
+                else np.pad(s.starts, ((0, k_max - s.starts.shape[0]), (0, 0)), constant_values=np.nan)
+                for s in setups
+            ]
+        )
+    )
     more = lambda items: items + [items[-1]] * pad
-    return (_stack(more(list(targets))), _stack(more([s.space for s in setups])),
-            None if prec is None else np.stack(more(prec)), None if z0 is None else np.concatenate([z0] + [z0[-1:]] * pad),
-            np.arange(len(setups) + pad))  # fmt: skip
+    return (
+        _stack(more(list(targets))),
+        _stack(more([s.space for s in setups])),
+        None if prec is None else np.stack(more(prec)),
+        None if z0 is None else np.concatenate([z0] + [z0[-1:]] * pad),
+        np.arange(len(setups) + pad),
+    )
 
 
 def run_group(
@@ -213,13 +226,30 @@ def run_group(
         if batched:
             target, space, prec, z0, member = (jax.tree.map(lambda a: replicate(a, mesh), b) for b in (target, space, prec, z0, member))
     token = next(_TOKENS)
-    args = ((replicate(np.int64(search.seed), mesh), ids), target, space, prec, z0, program.hyper, jnp.asarray(token, jnp.int64),
-            jnp.asarray(member))  # fmt: skip
+    args = (
+        (replicate(np.int64(search.seed), mesh), ids),
+        target,
+        space,
+        prec,
+        z0,
+        program.hyper,
+        jnp.asarray(token, jnp.int64),
+        jnp.asarray(member),
+    )
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout
     options = compiler_options(search.budget * max(sample_steps(s) for s in setups), plain=search.memory is None and not batched)
-    cache_key = (*compile_key(search, program), batched, axis, *weights, len(devices), kernel_mode(), leaf_signature(args), show,
-                 tuple(sorted((options or {}).items())))  # fmt: skip
+    cache_key = (
+        *compile_key(search, program),
+        batched,
+        axis,
+        *weights,
+        len(devices),
+        kernel_mode(),
+        leaf_signature(args),
+        show,
+        tuple(sorted((options or {}).items())),
+    )
     t0 = time.perf_counter()
     build = lambda: _compiled_runs(program, search.memory, mesh, setups[0].space.dim, show, batched, axis, split)
     compiled, reused = EXECUTABLES.get(cache_key, build, args, options)

@@ -106,8 +106,12 @@ def search_of(search: "Search | None", legacy: dict, default: "Search") -> Searc
         raise ConfigError(f"search must be a dcjax.Search(method=, runs=, budget=, seed=, memory=, polish=), got {search!r}")
     if not legacy:
         return search if search is not None else default
-    warn_deprecated(f"fit's {', '.join(f'{k}=' for k in legacy)}", f"search=dcjax.Search({', '.join(f'{k}=...' for k in legacy)})",
-                    stacklevel=4, since="0.4")  # fmt: skip
+    warn_deprecated(
+        f"fit's {', '.join(f'{k}=' for k in legacy)}",
+        f"search=dcjax.Search({', '.join(f'{k}=...' for k in legacy)})",
+        stacklevel=4,
+        since="0.4",
+    )
     return dataclasses.replace(search if search is not None else default, **legacy)
 
 

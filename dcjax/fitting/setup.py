@@ -113,14 +113,25 @@ class Setup:
 
     def with_integrator(self, integrator: Integrator) -> "Setup":
         """The same fit simulated with another integrator (other sub-steps)."""
-        return dataclasses.replace(self, integrator=integrator, problems=problems_of(self.recordings, self.model, integrator,
-                                                                                    self.weights, self.observation))  # fmt: skip
+        return dataclasses.replace(
+            self, integrator=integrator, problems=problems_of(self.recordings, self.model, integrator, self.weights, self.observation)
+        )
 
 
 def problems_of(recordings, model: Model, integrator: Integrator, weights, observation: Observation) -> list[Problem]:
     """Each recording's `Problem` under the observation (its loss, the initial states not fitted)."""
-    return [make_problem(r, integrator, weights, model=model, loss=observation.loss, initial=observation.initial_values(model, r),
-                         hold=dict(observation.hold)) for r in recordings]  # fmt: skip
+    return [
+        make_problem(
+            r,
+            integrator,
+            weights,
+            model=model,
+            loss=observation.loss,
+            initial=observation.initial_values(model, r),
+            hold=dict(observation.hold),
+        )
+        for r in recordings
+    ]
 
 
 # -- what every recording of a fit shares --------------------------------------------------------
@@ -160,8 +171,20 @@ class Plan:
         x0 = starts if starts is not None else (vec.start or None)
         jw = joint_weights(recordings, pooled=observation.loss.normalize == "none")
         trivial = layout == Layout.plain(model.names, len(recordings))
-        return Setup(recordings, model, vec, integrator, problems, space, start_rows(x0, model, space), jw, weights, observation,
-                     None if trivial else layout, tuple(findings))  # fmt: skip
+        return Setup(
+            recordings,
+            model,
+            vec,
+            integrator,
+            problems,
+            space,
+            start_rows(x0, model, space),
+            jw,
+            weights,
+            observation,
+            None if trivial else layout,
+            tuple(findings),
+        )
 
 
 def plan(

@@ -78,8 +78,15 @@ def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[d
     rows = []
     for r in results:
         if isinstance(r, FailedFit):
-            rows.append({"name": r.name, "file": r.source or "", "status": "failed", "error": r.error,
-                         "checks": " ".join(f.label for f in r.checks)})  # fmt: skip
+            rows.append(
+                {
+                    "name": r.name,
+                    "file": r.source or "",
+                    "status": "failed",
+                    "error": r.error,
+                    "checks": " ".join(f.label for f in r.checks),
+                }
+            )
             continue
         row = {"name": r.recording.name if r.recording else "", "file": _source(r), "status": "ok", "error": "", "of": r.of}
         row.update(dict(r.best_values))  # the model's parameters, then any fitted y0_*, offset_*, delay_*
@@ -170,8 +177,10 @@ def _plot_summary(rows, m, path: Path) -> None:
         ax.tick_params(labelbottom=j >= n - ncol)  # the names under the lowest panel of each column
     failed = [r["name"] for r in rows if r["status"] != "ok"]
     flagged = [r["name"] for r in ok if r.get("outlier")]
-    lines = [f"{len(ok)} fitted, {len(failed)} failed; x: outlier (modified z > {OUTLIER_Z:g}, fit % <= 0, OF far above the fleet's); "
-             "open grey: at a bound"]  # fmt: skip
+    lines = [
+        f"{len(ok)} fitted, {len(failed)} failed; x: outlier (modified z > {OUTLIER_Z:g}, fit % <= 0, OF far above the fleet's); "
+        "open grey: at a bound"
+    ]
     if flagged:
         lines.append("outliers: " + ", ".join(flagged))
     if failed:

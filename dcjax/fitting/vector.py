@@ -182,8 +182,13 @@ def transferred(layout: Layout, n_rec: int) -> Layout:
 def rows_of(layout: Layout, rows: list[int]) -> Layout:
     """The layout of the fitted recordings `rows` (each with its own columns)."""
     pick = lambda cols: tuple(cols[r] for r in rows) if cols else ()
-    return dataclasses.replace(layout, model_cols=pick(layout.model_cols), y0_cols=pick(layout.y0_cols),
-                               offset_cols=pick(layout.offset_cols), delay_cols=pick(layout.delay_cols))  # fmt: skip
+    return dataclasses.replace(
+        layout,
+        model_cols=pick(layout.model_cols),
+        y0_cols=pick(layout.y0_cols),
+        offset_cols=pick(layout.offset_cols),
+        delay_cols=pick(layout.delay_cols),
+    )
 
 
 def resolve_parameters(params, recordings: list[Recording], model: Model) -> tuple[Parameters, Parameters]:
@@ -221,11 +226,16 @@ def sidecar_preset(recordings: list[Recording], model: Model) -> str:
     known = {p for cls in MODELS.values() for p in cls().preset_names} | set(model.preset_names) | {"auto"}
     bad = sorted(str(n) for n in named if str(n).lower() not in known)
     if bad:
-        raise ConfigError(f"the sidecar's bounds {', '.join(map(repr, bad))} is no preset: model {model.name} has "
-                         f"{', '.join(model.preset_names) or 'none'}, or auto")  # fmt: skip
+        raise ConfigError(
+            f"the sidecar's bounds {', '.join(map(repr, bad))} is no preset: model {model.name} has "
+            f"{', '.join(model.preset_names) or 'none'}, or auto"
+        )
     if len(named) > 1 or str(next(iter(named))).lower() not in (*model.preset_names, "auto"):
-        warnings.warn(f"the sidecars' bounds {', '.join(sorted(map(str, named)))} {'differ' if len(named) > 1 else 'is no preset of model ' + model.name}: "
-                      "auto bounds (params='PRESET' names one)", stacklevel=3)  # fmt: skip
+        warnings.warn(
+            f"the sidecars' bounds {', '.join(sorted(map(str, named)))} {'differ' if len(named) > 1 else 'is no preset of model ' + model.name}: "
+            "auto bounds (params='PRESET' names one)",
+            stacklevel=3,
+        )
         return "auto"
     return str(next(iter(named))).lower()
 

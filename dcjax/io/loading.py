@@ -184,9 +184,12 @@ def preprocess(rec: Recording, window=None, every: int | None = None, trim: bool
         aliased = aliasing(rec, int(every))
         if aliased:
             c, share, nyquist = aliased
-            warnings.warn(f"every={every} keeps 1 sample in {every}: {c} has {100 * share:.2g} % of its power above the new Nyquist "
-                          f"frequency {nyquist:.4g} Hz, which folds into the samples kept (no anti-alias filter is applied): "
-                          "low-pass filter first, or keep more samples", stacklevel=3)  # fmt: skip
+            warnings.warn(
+                f"every={every} keeps 1 sample in {every}: {c} has {100 * share:.2g} % of its power above the new Nyquist "
+                f"frequency {nyquist:.4g} Hz, which folds into the samples kept (no anti-alias filter is applied): "
+                "low-pass filter first, or keep more samples",
+                stacklevel=3,
+            )
         rec = rec.select(slice(None, None, int(every)))
     if trim:
         m = get_model(model)
@@ -239,58 +242,64 @@ def load_recording(
       one-line warning of how many (default: such a row is a one-line error).
     - `reading`: a `Reading` holding `columns`, `units`, `scale`, `dt`, `rate`, `delimiter`,
       `decimal`, `constants` and `drop_nan` in one object (instead of those keywords)."""
-    if reading is not None:
-        if (columns, units, scale, dt, rate, delimiter, decimal, constants, drop_nan) != (
-            None,
-            None,
-            None,
-            None,
-            None,
-            None,
-            ".",
-            None,
-            False,
-        ):
-            raise ConfigError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
-        as_dict = lambda m: None if m is None else dict(m)
-        columns, units, scale, dt, rate = as_dict(reading.columns), as_dict(reading.units), as_dict(reading.scale), reading.dt, reading.rate
-        delimiter, decimal, constants, drop_nan = reading.delimiter, reading.decimal, as_dict(reading.constants), reading.drop_nan
+    given = Reading(columns or None, units or None, scale or None, dt, rate, delimiter, decimal, constants or None, bool(drop_nan))
+    if reading is not None and given.given:
+        raise ConfigError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
+    read = reading if reading is not None else given
     m = get_model(model)
     path = Path(path)
-    if not path.is_file():
-        raise DataError(f"no such file: {path}")
-    suffix = path.suffix.lower()
-    if suffix == ".npz":
-        table = Table(read_npz(path), {}, np.array([]))
-    elif suffix == ".mat":
-        table = Table(read_mat(path), {}, np.array([]))
-    elif suffix in TEXT_SUFFIXES or suffix == "":
-        table = read_table(path, delimiter, decimal)
-    else:
-        raise DataError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
+    table = _table_of(path, read)
     meta = read_sidecar(path)
-    consts = {**(meta.get("constants") or {}), **(constants or {})}
+    consts = {**(meta.get("constants") or {}), **(read.constants or {})}
     needed = tuple(c for c in m.channels if c not in consts or c not in m.inputs)
     unmeasured = tuple(s for s in m.states if s not in needed)  # read where present: an initial state
-    chans = select_channels(table.columns, needed, columns, units, m.quantities, where=f"{path.name}: ", scale=scale, dt=dt, rate=rate,
-                            inputs=tuple(m.inputs), optional=unmeasured)  # fmt: skip
-    unconverted_units(list(table.columns), table.units, "units line" if table.units_line is not None else "header", chans, columns,
-                      units, m.quantities, path.name, timed=dt is not None or rate is not None)  # fmt: skip
-    if drop_nan:
-        chans = _finite_rows(chans, path.name)
-    else:
-        _no_nan(chans, table, path.name)
+    columns, units = dict(read.columns or {}), dict(read.units or {})
+    chans = select_channels(
+        table.columns,
+        needed,
+        columns,
+        units,
+        m.quantities,
+        where=f"{path.name}: ",
+        scale=dict(read.scale or {}),
+        dt=read.dt,
+        rate=read.rate,
+        inputs=tuple(m.inputs),
+        optional=unmeasured,
+    )
+    by = "units line" if table.units_line is not None else "header"
+    timed = read.dt is not None or read.rate is not None
+    unconverted_units(list(table.columns), table.units, by, chans, columns, units, m.quantities, path.name, timed=timed)
+    chans = _finite_rows(chans, path.name) if read.drop_nan else _no_nan(chans, table, path.name)
     if consts:
         meta["constants"] = consts
     limit = limit if limit is not None else meta.get("limit", meta.get("i_a_limit"))
     t = chans.pop("t")
     rec = Recording(t=t, channels=chans, limit=limit, name=name or meta.get("name") or path.stem, metadata=meta)
     rec = preprocess(rec, window, every, trim, m)
-    read = Reading(columns or None, units or None, scale or None, dt, rate, delimiter, decimal, constants or None, bool(drop_nan))
-    kept = {"window": None if window is None else list(_window(window) or ()), "every": every, "trim": trim, "limit": limit,
-            "model": None if model is None else (m.name if isinstance(model, str) else None)}  # fmt: skip
+    kept = {
+        "window": None if window is None else list(_window(window) or ()),
+        "every": every,
+        "trim": trim,
+        "limit": limit,
+        "model": None if model is None else (m.name if isinstance(model, str) else None),
+    }
     load = read.to_dict() | {k: v for k, v in kept.items() if v not in (None, False)}
     return rec.replace(metadata={**meta, "source": _source(path, load, rec.name)})
+
+
+def _table_of(path: Path, read: Reading) -> Table:
+    """The file's table by its kind: delimited text, `.npz` or MATLAB `.mat`."""
+    if not path.is_file():
+        raise DataError(f"no such file: {path}")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        return Table(read_npz(path), {}, np.array([]))
+    if suffix == ".mat":
+        return Table(read_mat(path), {}, np.array([]))
+    if suffix in TEXT_SUFFIXES or suffix == "":
+        return read_table(path, read.delimiter, read.decimal)
+    raise DataError(f"{path}: unknown file type {suffix!r}; accepted: {', '.join(TEXT_SUFFIXES)}, .npz, .mat")
 
 
 def _source(path: Path, load: dict, name: str) -> dict:
@@ -306,15 +315,18 @@ def _source(path: Path, load: dict, name: str) -> dict:
 LOAD_KEYS = (*(f.name for f in dataclasses.fields(Reading)), "window", "every", "trim", "limit", "model")  # a result's "load" record
 
 
-def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> None:
+def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> dict[str, np.ndarray]:
     """A one-line `DataError` naming the file's line of the first row with a NaN/inf in a channel read."""
     bad = {c: np.flatnonzero(~np.isfinite(v)) for c, v in chans.items()}
     bad = {c: k for c, k in bad.items() if k.size}
     if not bad:
-        return
+        return chans
     c, rows = min(bad.items(), key=lambda kv: kv[1][0])
     k = int(rows[0])
     at = f"line {int(table.lines[k])}" if table.lines.size else f"row {k}"
-    raise DataError("nan", f"{where}: {at}: {c} is {'NaN' if np.isnan(chans[c][k]) else 'inf'} (a missing or non-finite field; "
-                           f"{int(np.sum(~np.logical_and.reduce([np.isfinite(v) for v in chans.values()])))} rows in all; "
-                           "drop_nan=True drops such rows)")  # fmt: skip
+    raise DataError(
+        "nan",
+        f"{where}: {at}: {c} is {'NaN' if np.isnan(chans[c][k]) else 'inf'} (a missing or non-finite field; "
+        f"{int(np.sum(~np.logical_and.reduce([np.isfinite(v) for v in chans.values()])))} rows in all; "
+        "drop_nan=True drops such rows)",
+    )

@@ -84,8 +84,11 @@ class Recording:
         for col, a in arrays.items():
             bad = np.flatnonzero(~np.isfinite(a))
             if bad.size:
-                raise DataError("nan", f"{self._where()}column {col!r} has NaN/inf at row {int(bad[0])} ({bad.size} in all; "
-                                       "load_recording(drop_nan=True) drops such rows)")  # fmt: skip
+                raise DataError(
+                    "nan",
+                    f"{self._where()}column {col!r} has NaN/inf at row {int(bad[0])} ({bad.size} in all; "
+                    "load_recording(drop_nan=True) drops such rows)",
+                )
         tt = arrays.pop("t")
         dt = np.diff(tt)
         if np.any(dt <= 0):

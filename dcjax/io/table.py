@@ -83,8 +83,9 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
         last = split_fields(lines[-1], d)
         if len(last) >= 2 and row_values(last, decimal) is not None and not _all_missing(last):
             return d
-    raise DataError("cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or "
-                     "whitespace; give delimiter=")  # fmt: skip
+    raise DataError(
+        "cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or whitespace; give delimiter="
+    )
 
 
 def _tail_lines(path: Path) -> list[str]:
@@ -227,5 +228,7 @@ def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: st
     if len(fields) != width:
         return f"{where} has {len(fields)} field(s), the data rows from line {first} have {width}: a ragged or broken row"
     bad = next((k, f) for k, f in enumerate(fields) if row_values([f], decimal) is None)
-    return (f"{where}: field {bad[0]} ({bad[1]!r}) is not a number, inside the data that start at line {first} "
-            "(a row of text in the data is an error, not a new start; remove or fix the line)")  # fmt: skip
+    return (
+        f"{where}: field {bad[0]} ({bad[1]!r}) is not a number, inside the data that start at line {first} "
+        "(a row of text in the data is an error, not a new start; remove or fix the line)"
+    )

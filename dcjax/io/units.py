@@ -19,14 +19,23 @@ UNITS: dict[str, dict[str, float]] = {
         "rev/s": 2 * np.pi,
         "turns/s": 2 * np.pi,
         "deg/s": np.pi / 180,
-    },  # fmt: skip
+    },
     "angle": {"rad": 1.0, "deg": np.pi / 180, "rev": 2 * np.pi, "turns": 2 * np.pi},
     "torque": {"Nm": 1.0, "mNm": 1e-3},
 }
 
 # The SI unit a loaded channel is in, by the model's quantity.
-SI_UNITS = {"time": "s", "voltage": "V", "current": "A", "angular speed": "rad/s", "angle": "rad", "torque": "Nm",
-            "position": "m", "speed": "m/s", "force": "N"}  # fmt: skip
+SI_UNITS = {
+    "time": "s",
+    "voltage": "V",
+    "current": "A",
+    "angular speed": "rad/s",
+    "angle": "rad",
+    "torque": "Nm",
+    "position": "m",
+    "speed": "m/s",
+    "force": "N",
+}
 
 
 class ColumnError(DataError):
@@ -159,8 +168,9 @@ def select_channels(
     return out
 
 
-def unconverted_units(headers: list[str], stated: dict[str, str], by: str, chans, columns, units, quantities: dict, where: str,
-                      timed: bool = False) -> None:  # fmt: skip
+def unconverted_units(
+    headers: list[str], stated: dict[str, str], by: str, chans, columns, units, quantities: dict, where: str, timed: bool = False
+) -> None:
     """A one-line warning for each channel read (`chans`) whose column the file gives a unit
     (`stated`, header -> unit, from its units line or its header name: `by`) that nothing
     converts: a unit other than the channel's SI unit that `units` does not name, or a unit dcjax
@@ -178,15 +188,23 @@ def unconverted_units(headers: list[str], stated: dict[str, str], by: str, chans
         quantity = "time" if c == "t" else quantities.get(c)
         si = SI_UNITS.get(quantity or "", "SI")
         if not known_unit(unit):
-            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, which dcjax does not know: it is read "
-                          f"as {si}; convert it (units={{{c!r}: UNIT}}, scale={{{c!r}: FACTOR}}) or check it", stacklevel=3)  # fmt: skip
+            warnings.warn(
+                f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, which dcjax does not know: it is read "
+                f"as {si}; convert it (units={{{c!r}: UNIT}}, scale={{{c!r}: FACTOR}}) or check it",
+                stacklevel=3,
+            )
             continue
         try:
             factor = unit_factor(c, unit, quantity)
         except ValueError:
-            warnings.warn(f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, not one of {quantity or 'its quantity'} "
-                          f"({', '.join(UNITS.get(quantity or '', {})) or si}): check the column mapping", stacklevel=3)  # fmt: skip
+            warnings.warn(
+                f"{where}: the {by} gives column {name!r} ({c}) the unit {unit!r}, not one of {quantity or 'its quantity'} "
+                f"({', '.join(UNITS.get(quantity or '', {})) or si}): check the column mapping",
+                stacklevel=3,
+            )
             continue
         if factor != 1.0:
-            warnings.warn(f"{where}: column {name!r} ({c}) is in {unit} by its {by}, but read as {si}: units={{{c!r}: {unit!r}}} "
-                          "converts it", stacklevel=3)  # fmt: skip
+            warnings.warn(
+                f"{where}: column {name!r} ({c}) is in {unit} by its {by}, but read as {si}: units={{{c!r}: {unit!r}}} converts it",
+                stacklevel=3,
+            )

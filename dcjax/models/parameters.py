@@ -52,9 +52,19 @@ class Parameter:
         self.set(positive=self.positive, scale=self.scale, prior=self.prior)
 
     def set(
-        self, value=_UNSET, *, min=_UNSET, max=_UNSET, vary=_UNSET, precision=_UNSET, stderr=_UNSET, local=_UNSET, positive=_UNSET,
-        scale=_UNSET, prior=_UNSET,
-    ) -> "Parameter":  # fmt: skip
+        self,
+        value=_UNSET,
+        *,
+        min=_UNSET,
+        max=_UNSET,
+        vary=_UNSET,
+        precision=_UNSET,
+        stderr=_UNSET,
+        local=_UNSET,
+        positive=_UNSET,
+        scale=_UNSET,
+        prior=_UNSET,
+    ) -> "Parameter":
         """Change fields by keyword (lmfit's `Parameter.set`); returns the parameter."""
         for field, v in (("value", value), ("min", min), ("max", max), ("precision", precision), ("stderr", stderr)):
             if v is _UNSET:

@@ -30,8 +30,13 @@ class PMSM(Model):
     positive: ClassVar[tuple[str, ...]] = NAMES
     required: ClassVar[tuple[str, ...]] = ("Rs", "Ld", "Lq", "psi_m", "J")
     quantities: ClassVar[dict[str, str]] = {
-        "ud": "voltage", "uq": "voltage", "id": "current", "iq": "current", "omega": "angular speed", "Tl": "torque",
-    }  # fmt: skip
+        "ud": "voltage",
+        "uq": "voltage",
+        "id": "current",
+        "iq": "current",
+        "omega": "angular speed",
+        "Tl": "torque",
+    }
 
     @property
     def name(self) -> str:

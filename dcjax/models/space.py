@@ -127,6 +127,8 @@ def vector_space(
     logs = tuple(k for k in free if names[k] in log)
     bad = [f"{names[k]} (min {lo[k]:g})" for k in logs if not lo[k] > 0]
     if bad:
-        raise ConfigError(f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
-                         f"give one: params[{names[logs[0]]!r}].set(min=LO, max=HI)")  # fmt: skip
+        raise ConfigError(
+            f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
+            f"give one: params[{names[logs[0]]!r}].set(min=LO, max=HI)"
+        )
     return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names), logs)

@@ -62,10 +62,11 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
     if delay is None:  # a steady input: None (read once, `Problem.steady_inputs`); a discrete-time map's: its start only
         ends = problem.reads_ends
         return problem.h[:, None], tuple(
-            None if j in problem.steady else
-            (jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1) if ends else problem.u_start[:, j, None])[:, None]
+            None
+            if j in problem.steady
+            else (jnp.stack([problem.u_start[:, j], problem.u_end[:, j]], axis=-1) if ends else problem.u_start[:, j, None])[:, None]
             for j in range(m)
-        )  # fmt: skip
+        )
     t, u = sample_times(problem), _samples(problem)
     batch = delay.shape[:-1]
     if isinstance(problem.model, DiscreteModel):
@@ -84,8 +85,9 @@ def input_pieces(problem: Problem, adjustments: "Adjustments | None" = None):
             at = jnp.where(i < t.shape[0], t[jnp.minimum(i, t.shape[0] - 1)] + d, jnp.inf)
             knots.append(jnp.clip(at, start, end))
     inner = jnp.sort(jnp.stack(knots, axis=-1), axis=-1)  # (n-1, *batch, K-1)
-    ends = jnp.concatenate([jnp.broadcast_to(start, inner.shape[:-1])[..., None], inner,
-                            jnp.broadcast_to(end, inner.shape[:-1])[..., None]], axis=-1)  # fmt: skip
+    ends = jnp.concatenate(
+        [jnp.broadcast_to(start, inner.shape[:-1])[..., None], inner, jnp.broadcast_to(end, inner.shape[:-1])[..., None]], axis=-1
+    )
     inputs = []
     for j in range(m):
         d = delay[..., j].reshape((1, *batch, 1))

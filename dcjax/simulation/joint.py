@@ -193,9 +193,14 @@ def padded(problem: Problem, n: int) -> Problem:
         a = xp.asarray(a)
         return jnp.asarray(xp.concatenate([a, xp.repeat(a[-1:], k, axis=0)]))
 
-    return dataclasses.replace(problem, h=jnp.asarray(xp.concatenate([problem.h, xp.zeros(k)])),
-                               u_start=hold(problem.u_start), u_end=hold(problem.u_end), y_meas=hold(problem.y_meas),
-                               mask=jnp.asarray(xp.concatenate([mask, xp.zeros(k)])))  # fmt: skip
+    return dataclasses.replace(
+        problem,
+        h=jnp.asarray(xp.concatenate([problem.h, xp.zeros(k)])),
+        u_start=hold(problem.u_start),
+        u_end=hold(problem.u_end),
+        y_meas=hold(problem.y_meas),
+        mask=jnp.asarray(xp.concatenate([mask, xp.zeros(k)])),
+    )
 
 
 def to_common_length(problems: list[Problem]) -> list[Problem]:
@@ -308,9 +313,7 @@ class JointProblem(eqx.Module):
         """Every recording's residuals (`dcjax.residuals`, in recording order), each scaled by
         sqrt(its weight): sum r^2 is `objective(x)`. Recordings of one group are evaluated by one
         vmapped call, as in `objective` (a padded recording's extra samples are left out)."""
-        out = [
-            o.reshape(p.y_meas.shape[1], -1)[:, : p.n].reshape(-1) for o, p in zip(self.each(x, residuals), self.problems)
-        ]  # fmt: skip
+        out = [o.reshape(p.y_meas.shape[1], -1)[:, : p.n].reshape(-1) for o, p in zip(self.each(x, residuals), self.problems)]
         return jnp.concatenate([jnp.sqrt(w) * o for w, o in zip(self.weights, out)])
 
     def simulate(self, x: Float[Array, " D"], r: int = 0):

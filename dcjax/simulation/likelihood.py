@@ -43,10 +43,12 @@ def channel_errors(params, problem: Problem, adj) -> Float[Array, "C n"]:
     traj = simulate(params, problem, adj)
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
     off = None if adj is None else adj.offset
-    return jnp.stack([
-        (traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]) * norm[j]
-        for j, o in enumerate(problem.model.output_index)
-    ])  # fmt: skip
+    return jnp.stack(
+        [
+            (traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]) * norm[j]
+            for j, o in enumerate(problem.model.output_index)
+        ]
+    )
 
 
 def _channel_rho(params, problem: Problem, adj) -> Float[Array, " C"]:

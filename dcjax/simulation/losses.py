@@ -138,8 +138,10 @@ class L1(Loss):
 
     @property
     def approximation(self) -> str:
-        return ("l1 loss: standard errors from the l1 estimator's sandwich H^-1 V H^-1 (the errors' density at 0 by Siddiqui's "
-                "difference quotient; the Laplace likelihood's under Laplace noise); `dcjax sample` uses the Laplace likelihood")  # fmt: skip
+        return (
+            "l1 loss: standard errors from the l1 estimator's sandwich H^-1 V H^-1 (the errors' density at 0 by Siddiqui's "
+            "difference quotient; the Laplace likelihood's under Laplace noise); `dcjax sample` uses the Laplace likelihood"
+        )
 
     def log_density(self, S, n, tau):
         """Laplace: -S / b - n log(2 b), b = tau."""
@@ -180,8 +182,10 @@ class Huber(Loss):
 
     @property
     def approximation(self) -> str:
-        return (f"huber loss (delta {self.delta:g}): standard errors from the huber estimator's sandwich H^-1 V H^-1 "
-                "(samples beyond delta weigh less, as in the fit); `dcjax sample` uses the Huber likelihood")  # fmt: skip
+        return (
+            f"huber loss (delta {self.delta:g}): standard errors from the huber estimator's sandwich H^-1 V H^-1 "
+            "(samples beyond delta weigh less, as in the fit); `dcjax sample` uses the Huber likelihood"
+        )
 
     def _log_z(self, tau):
         """log of Z(tau) = int exp(-rho(a) / (2 tau^2)) da = tau (sqrt(2 pi) erf(k / sqrt 2) + 2 exp(-k^2 / 2) / k), k = delta / tau."""
@@ -197,8 +201,12 @@ class Huber(Loss):
         from scipy.optimize import minimize_scalar  # lazy: scipy adds 0.1-0.6 s to importing dcjax
 
         g = math.sqrt(S / n)  # the Gaussian scale: the answer where every residual lies within delta
-        res = minimize_scalar(lambda lt: -float(self.log_density(S, n, math.exp(lt))), bounds=(math.log(g) - 5, math.log(g) + 5), method="bounded",
-                              options={"xatol": 1e-10})  # fmt: skip
+        res = minimize_scalar(
+            lambda lt: -float(self.log_density(S, n, math.exp(lt))),
+            bounds=(math.log(g) - 5, math.log(g) + 5),
+            method="bounded",
+            options={"xatol": 1e-10},
+        )
         return math.exp(float(res.x))
 
     def fisher(self, tau: float) -> float:

@@ -372,11 +372,32 @@ class BatchProgram(eqx.Module):
     key: str = eqx.field(static=True)
     hyper: dict
 
-    def run(self, hyper: dict[str, Array], keys: PRNGKeyArray, fn: FitnessFn, dim: int, memory=None, precision=None, x0=None,
-            report: Callable | None = None, chunks: int = 20) -> RunOutput:  # fmt: skip
+    def run(
+        self,
+        hyper: dict[str, Array],
+        keys: PRNGKeyArray,
+        fn: FitnessFn,
+        dim: int,
+        memory=None,
+        precision=None,
+        x0=None,
+        report: Callable | None = None,
+        chunks: int = 20,
+    ) -> RunOutput:
         """`run_batch` of the strategy with `hyper` (traced), reporting about `chunks` times."""
-        return run_batch(with_hyperparameters(self.strategy, hyper), keys, fn, self.budget, dim, memory, precision, None, x0,
-                         report=report, report_every=max(1, -(-self.t_max // chunks)))  # fmt: skip
+        return run_batch(
+            with_hyperparameters(self.strategy, hyper),
+            keys,
+            fn,
+            self.budget,
+            dim,
+            memory,
+            precision,
+            None,
+            x0,
+            report=report,
+            report_every=max(1, -(-self.t_max // chunks)),
+        )
 
 
 def batch_program(strategy: Strategy, budget: int) -> BatchProgram:

@@ -84,8 +84,16 @@ class LTMA(MemoryAssistance):
         capacity = max(int(capacity), pop.shape[0])
         chunk = min(self.chunk, capacity)
         d = pop.shape[1]
-        empty = Records(jnp.zeros((capacity, d), pop.dtype), jnp.zeros(capacity, fit.dtype), zero, precision, zero, chunk,
-                        newest_first=self.order == "newest", population=False)  # fmt: skip
+        empty = Records(
+            jnp.zeros((capacity, d), pop.dtype),
+            jnp.zeros(capacity, fit.dtype),
+            zero,
+            precision,
+            zero,
+            chunk,
+            newest_first=self.order == "newest",
+            population=False,
+        )
         return empty.add(pop, fit, evaluated)
 
 

@@ -10,7 +10,7 @@ import pytest
 
 import dcjax
 from dcjax import cli
-from dcjax.fitting.engine import settings_of
+from dcjax.fitting.engine import recorded
 from dcjax.fitting.observation import Observation, derivative_at_start
 from dcjax.fitting.setup import Search, plan
 from dcjax.io.numpy_simulator import simulate_numpy
@@ -296,8 +296,7 @@ def test_local_offsets_and_the_search_vector_layout(sd1):
     assert (
         lay.offset_cols == ((9,), (10,)) and lay.y0_cols == ((7,), (8,)) and lay.measured_start == (0,)
     )  # i_a starts at its sample less the offset
-    settings = settings_of(setup, Search(dcjax.strategies.DERand1Exp(), runs=1, budget=700))
-    assert settings["local"] == ["offset_i_a", "y0_omega"] and settings["names"] == list(names)
+    assert recorded(setup, Search(dcjax.strategies.DERand1Exp(), runs=1, budget=700))["local"] == ("offset_i_a", "y0_omega")
 
 
 @pytest.mark.slow

@@ -66,7 +66,7 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
         lines.append(
             f"    fit % ({rec.name})" + " " * max(1, 11 - len(rec.name)) + "= " + ", ".join(f"{c} {v:.3f}" for c, v in fits.items())
         )
-    u = result._uncertainty
+    u = result.uncertainties
     lines.append("[[Variables]]")
     at_bound = set(result.at_bound())
     names = result.names

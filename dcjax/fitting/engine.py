@@ -10,14 +10,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..io.recording import Recording
-from ..models import model_spec
 from ..simulation.diffrax_reference import reference_simulate_jit, simulation_error
-from ..simulation.integrators import AutoSubsteps, integrator_spec
+from ..simulation.integrators import AutoSubsteps
 from ..simulation.joint import stacked_target
 from .polish import polish_batch
 from .result import FitResult
 from .runs import run_setups
-from .search import Search
+from .search import Search, SearchRecord
 from .setup import Plan, Setup
 from .vector import base_name
 
@@ -47,7 +46,6 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         run_x, run_of, polish_info = polish_runs(run_x, ran or setup)
     best = int(np.argmin(run_of))
     memory = search.memory is not None
-    settings = settings_of(setup, search)
     return FitResult(
         best_values=dict(zip(setup.space.names, map(float, run_x[best]))),
         of=float(run_of[best]),
@@ -56,7 +54,9 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         fes=np.asarray(out.fes),
         iterations=np.asarray(out.iterations),
         history=np.asarray(out.history),
-        settings=settings,
+        search=SearchRecord.of(search),
+        integrator=setup.integrator,
+        bounds=setup.space.bounds,
         timing=timing,
         polish=polish_info,
         dups=np.asarray(out.dups) if memory else None,
@@ -64,13 +64,10 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         recordings=list(setup.recordings),
         model=setup.model,
         fixed=setup.space.fixed,
-        integrator=setup.integrator,
         checks=tuple(setup.findings),
         observation=setup.observation,
         layout=setup.layout,
-        bounds=setup.space.bounds,
-        weights=tuple(settings["weights"]),
-        joint_weights=None if settings["joint_weights"] is None else tuple(settings["joint_weights"]),
+        **recorded(setup, search),
     )
 
 
@@ -154,54 +151,28 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
             "rounds": rounds[k],
             "reference": "diffrax Dopri8, PID rtol 1e-10 atol 1e-12, jump_ts at the samples",
         }
-        out.append(dataclasses.replace(result, settings={**result.settings, "nd_auto": info}))  # a new result with the choice recorded
+        out.append(dataclasses.replace(result, nd_auto=info))  # a new result with the choice recorded
     return out
 
 
-def settings_of(setup: Setup, search: Search) -> dict:
-    """What a result records of its configuration (result.json's "settings"), from the typed objects."""
-    recs, model, space = setup.recordings, setup.model, setup.space
-    # the weights used where they are not equal shares (given, or pooled by sample count)
+def recorded(setup: Setup, search: Search) -> dict:
+    """What a result keeps of a fit's setup beyond its objects: the channel and joint weights (the
+    latter where not equal shares: given, or pooled by sample count), each recording's source, the
+    start values, the parameters' own priors, the local and log-scale names, the memory's
+    precisions and the number of residuals."""
+    recs, space = setup.recordings, setup.space
     weighted = any(r.metadata.get("joint_weight") is not None for r in recs) or len(set(setup.joint_weights)) > 1
-    start = setup.params.start
-    observed = (
-        {}
-        if setup.observation.plain and setup.layout is None
-        else {
-            **setup.observation.to_dict(),
-            "names": list(space.names),
-            "local": sorted({base_name(n) for n, p in setup.params.items() if p.local}),
-        }
-    )
-    log = {"log": [space.names[k] for k in space.log]} if space.log else {}  # searched on log(x)
-    priors = {n: p.prior.spec for n, p in setup.params.items() if p.prior is not None and p.vary}
-    return (
-        observed
-        | log
-        | ({"priors": priors} if priors else {})  # for the sampler (the search does not use them)
-        | {
-            "recording": recs[0].name if len(recs) == 1 else [r.name for r in recs],
-            "data": [_source(r) for r in recs],
-            "model": model_spec(model),
-            "joint_weights": setup.joint_weights if weighted else None,
-            "method": search.name,
-            "integrator": integrator_spec(setup.integrator),
-            "nd": setup.integrator.substeps,
-            "weights": [float(w) for w in (setup.weights if setup.weights is not None else [1.0] * len(model.outputs))],
-            "bounds": {"lower": np.asarray(space.bounds.lower).tolist(), "upper": np.asarray(space.bounds.upper).tolist()},
-            "fixed": space.fixed,
-            "x0": start or None,
-            "runs": search.runs,
-            "budget": search.budget,
-            "seed": int(search.seed),
-            "pop_size": search.strategy.pop_size,
-            "polish": bool(search.polish),
-            "memory": None if search.memory is None else search.memory.kind,
-            "precision": None if search.memory is None else setup.physical_precision(),
-            "generations": search.generations,
-            "strategy": repr(search.strategy),
-            "ndata": int(sum(len(r) * len(model.outputs) for r in recs)),
-        }
+    return dict(
+        weights=tuple(float(w) for w in setup.weights) if setup.weights is not None else (),
+        joint_weights=tuple(float(w) for w in setup.joint_weights) if weighted else None,
+        sources=tuple(_source(r) for r in recs),
+        recording_names=tuple(r.name for r in recs),
+        start=setup.params.start or None,
+        priors={n: p.prior.spec for n, p in setup.params.items() if p.prior is not None and p.vary},  # for the sampler
+        local=tuple(sorted({base_name(n) for n, p in setup.params.items() if p.local})),
+        log=tuple(space.names[k] for k in space.log),
+        precision=None if search.memory is None else tuple(setup.physical_precision()),
+        data_points=int(sum(len(r) * len(setup.model.outputs) for r in recs)),
     )
 
 

@@ -20,6 +20,7 @@ from ..simulation.integrators import INTEGRATORS, Integrator, get_integrator
 from .observation import Observation
 from .result import FitResult
 from .result_file import MAX_RUNS, MAX_SUBSTEPS, Fields, ResultFileError, integrator_name, model_name, read_record, within_bounds
+from .search import SearchRecord
 from .vector import layout_of
 
 
@@ -68,7 +69,7 @@ def load_result(
     run = [Fields(path, r, f"runs[{k}].") for k, r in enumerate(runs)]
     dups = [r.integer("dups", default=None) for r in run] if "dups" in runs[0] else None
     n_data = len(s.data.get("data") or [0])
-    checks, polish, timing = _checked_rest(top, s, m, names, n_data)
+    checks, polish, timing = _checked_rest(top)
     try:
         layout = None if "names" not in s.data else layout_of(names, m, observation, n_data)
     except ValueError as e:
@@ -83,7 +84,6 @@ def load_result(
         fes=np.array([r.integer("fes", default=0) for r in run]),
         iterations=np.array([r.integer("iterations", default=0) for r in run]),
         history=np.full((len(runs), 1), np.nan),  # the file keeps each run's last best only (history_best)
-        settings=s.data,
         timing=timing,
         polish=polish,
         dups=None if dups is None else np.array(dups),
@@ -95,13 +95,12 @@ def load_result(
         observation=observation,
         layout=layout,
         bounds=Bounds(lower, upper, names),
+        **_recorded(s, m, names, n_data),
     )
 
 
-def _checked_rest(top: Fields, s: Fields, m: Model, names, n_data: int):
-    """(checks, polish, timing) of a result, and its settings' other fields checked (one-line
-    errors naming the field): weights, joint weights, precisions, the limit, the population size,
-    the log and local names, the priors."""
+def _checked_rest(top: Fields):
+    """(checks, polish, timing) of a result, each checked (one-line errors naming the field)."""
     checks = top.data.get("checks") or []
     if not isinstance(checks, list) or not all(isinstance(c, dict) for c in checks):
         raise top.error("checks", "a list of objects", checks)
@@ -117,27 +116,60 @@ def _checked_rest(top: Fields, s: Fields, m: Model, names, n_data: int):
         conv = polish.data["converged"]
         if not isinstance(conv, list) or not all(isinstance(v, bool) for v in conv):
             raise polish.error("converged", "a list of true/false", conv)
-    for what, n in (("weights", len(m.outputs)), ("joint_weights", n_data), ("precision", len(names))):
-        if s.data.get(what) is not None:
-            s.numbers(what, n, lower=0.0)
-    if s.data.get("i_limit") is not None:
-        s.number("i_limit", positive=True)
-    s.integer("pop_size", 1, default=1)
-    s.text("method")  # the report names it, the runs, the budget and the seed
-    for field, lo in (("runs", 1), ("budget", 1), ("seed", -(2**63))):
-        s.integer(field, lo)
-    for field in ("log", "local"):
-        s.names(field)
-    for n, spec in (s.sub("priors", required=False) or Fields(top.path, {})).data.items():
-        try:
-            prior_from_spec(spec)
-        except ValueError as e:
-            raise ResultFileError(f"{top.path}: settings.priors.{n}: {e}") from None
     timing = top.data.get("timing") or {}
     if not isinstance(timing, dict):
         raise top.error("timing", "an object", timing)
     checks = tuple(Finding(c["check"], c["severity"], c["message"], c.get("channel")) for c in checks)
     return checks, None if polish is None else polish.data, timing
+
+
+def _recorded(s: Fields, m: Model, names, n_data: int) -> dict:
+    """The typed fields of a `FitResult` that its settings record: the search, the channel and
+    joint weights, the data's sources, the start values, priors, local and log-scale names, the
+    memory's precisions, the number of residuals, the automatic ND, a 0.1 limit; each checked."""
+    optional = lambda what, n: None if s.data.get(what) is None else tuple(s.numbers(what, n, lower=0.0))
+    generations = s.data.get("generations")
+    memory, strategy = s.data.get("memory"), s.data.get("strategy", "")
+    if memory is not None and not isinstance(memory, str):
+        raise s.error("memory", "a memory's kind or null", memory)
+    for n, spec in (s.sub("priors", required=False) or Fields(s.path, {})).data.items():
+        try:
+            prior_from_spec(spec)
+        except ValueError as e:
+            raise ResultFileError(f"{s.path}: settings.priors.{n}: {e}") from None
+    sources = s.data.get("data") or []
+    if not isinstance(sources, list) or not all(isinstance(d, (dict, str)) for d in sources):
+        raise s.error("data", "a list of objects", sources)
+    recording = s.data.get("recording")
+    recording = [recording] if isinstance(recording, str) else recording or []
+    if not isinstance(recording, list) or not all(isinstance(r, str) for r in recording):
+        raise s.error("recording", "a name or a list of names", recording)
+    nd_auto = s.sub("nd_auto", required=False)
+    return dict(
+        search=SearchRecord(
+            s.text("method") or "",
+            s.integer("runs", 1),
+            s.integer("budget", 1),
+            s.integer("seed", -(2**63)),
+            s.integer("pop_size", 1, default=1),
+            None if generations is None else s.integer("generations", 1),
+            memory,
+            bool(s.data.get("polish", False)),
+            strategy if isinstance(strategy, str) else "",
+        ),
+        weights=optional("weights", len(m.outputs)) or (),
+        joint_weights=optional("joint_weights", n_data),
+        sources=tuple(sources),
+        recording_names=tuple(recording),
+        start=s.named_numbers("x0", required=False) or None,
+        priors=dict((s.sub("priors", required=False) or Fields(s.path, {})).data),
+        local=s.names("local"),
+        log=s.names("log"),
+        precision=optional("precision", len(names)),
+        data_points=None if s.data.get("ndata") is None else s.integer("ndata", 0),
+        nd_auto=None if nd_auto is None else nd_auto.data,
+        limit_setting=None if s.data.get("i_limit") is None else s.number("i_limit", positive=True),
+    )
 
 
 def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bool) -> list[Recording]:

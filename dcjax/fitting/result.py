@@ -5,7 +5,6 @@ its JSON form and its restoration without refitting."""
 import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
-from types import MappingProxyType
 from typing import TYPE_CHECKING
 
 import equinox as eqx
@@ -18,17 +17,17 @@ from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..io.files import strict_json, write_text
 from ..io.recording import Recording
-from ..models import Model, get_model, model_spec
+from ..models import Model, get_model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space, vector_space
-from ..simulation.integrators import Integrator, get_integrator
+from ..simulation.integrators import Integrator
 from ..simulation.joint import JointProblem, Layout, grid_length, padded
 from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
-from ..version import __version__
 from .observation import Observation
-from .result_file import FORMAT, VERSION, relative_to
+from .result_file import relative_to, result_record, settings_record
+from .search import SearchRecord
 from .vector import base_name, rows_of, transferred, unit_of
 
 
@@ -68,9 +67,10 @@ class FailedFit:
 class FitResult:
     """Best parameters over all runs (`params`, a `Parameters`; `best_values`, name -> float),
     per-run results and their statistics. Made once from a fit's setup and runs (or a saved
-    result.json) and not changed after: `uncertainty()` returns a new result. The configuration
-    is typed (`model`, `integrator`, `observation`, `layout`, `bounds`, `weights`,
-    `joint_weights`); `settings` is its record as result.json keeps it (read-only)."""
+    result.json) and not changed after: `uncertainty()` returns a new result. Every field is
+    typed: the model, the `search` it ran (`SearchRecord`), the integrator, the observation, the
+    layout of the search vector, its bounds, the channel and joint weights, the data's sources;
+    `settings` is derived from them as result.json records it."""
 
     best_values: dict[str, float]
     of: float
@@ -79,35 +79,42 @@ class FitResult:
     fes: np.ndarray  # (R,) real evaluations
     iterations: np.ndarray  # (R,)
     history: np.ndarray  # (R, T) best OF after each iteration (NaN past a run's end)
-    settings: Mapping
-    timing: dict
+    search: SearchRecord
+    integrator: Integrator = dataclasses.field(repr=False)
+    bounds: Bounds = dataclasses.field(repr=False)  # of the search vector
+    timing: dict = dataclasses.field(default_factory=dict)
     polish: dict | None = None
     dups: np.ndarray | None = None  # (R,) candidates answered from memory
     memory_chunks: np.ndarray | None = None  # (R,) memory chunks searched
     recordings: list[Recording] = dataclasses.field(default_factory=list, repr=False)
     model: Model = dataclasses.field(default_factory=get_model, repr=False)
     fixed: dict[str, float] = dataclasses.field(default_factory=dict)
-    integrator: Integrator | None = dataclasses.field(default=None, repr=False)  # None: from the settings
     checks: tuple = ()  # data-check findings (`dcjax.analysis.checks.Finding`)
     observation: Observation = dataclasses.field(default_factory=Observation, repr=False)  # loss, initial states, offsets, delays
     layout: Layout | None = dataclasses.field(default=None, repr=False)  # None: the model's parameters, shared
-    bounds: Bounds | None = dataclasses.field(default=None, repr=False)  # of the search vector (None: from the settings)
-    weights: tuple[float, ...] = ()  # channel weights (eq. 27; empty: from the settings)
+    weights: tuple[float, ...] = ()  # channel weights (eq. 27; empty: all 1)
     joint_weights: tuple[float, ...] | None = None  # each recording's share where not equal (None: equal shares)
-    _uncertainty: object = dataclasses.field(default=None, repr=False)
+    sources: tuple[dict | str, ...] = ()  # where each recording came from (its file, sha256, reading; or its name)
+    recording_names: tuple[str, ...] = ()
+    start: dict[str, float] | None = None  # the start values given (x0)
+    priors: dict[str, str] = dataclasses.field(default_factory=dict)  # name -> prior spec of the parameters' own priors
+    local: tuple[str, ...] = ()  # parameters with one value per recording
+    log: tuple[str, ...] = ()  # entries of the search vector searched on a log scale
+    precision: tuple[float, ...] | None = None  # the memory's precisions (physical), with memory
+    data_points: int | None = None  # residuals: samples times compared channels
+    nd_auto: dict | None = None  # the automatic sub-step choice (`AutoSubsteps`), where made
+    limit_setting: float | None = None  # a 0.1 result's current limit (a setting then)
+    uncertainties: "Uncertainty | None" = dataclasses.field(default=None, repr=False)  # `uncertainty()`'s analysis
 
     def __post_init__(self):
-        s = self.settings
-        object.__setattr__(self, "settings", MappingProxyType(dict(s)))
         object.__setattr__(self, "checks", tuple(self.checks))
-        if self.bounds is None:
-            object.__setattr__(self, "bounds", Bounds(s["bounds"]["lower"], s["bounds"]["upper"], self.names))
         if not self.weights:
-            object.__setattr__(self, "weights", tuple(float(w) for w in s.get("weights") or [1.0] * len(self.model.outputs)))
-        if self.joint_weights is None and s.get("joint_weights"):
-            object.__setattr__(self, "joint_weights", tuple(float(w) for w in s["joint_weights"]))
-        if self.integrator is None:
-            object.__setattr__(self, "integrator", get_integrator(s["integrator"], int(s["nd"])))
+            object.__setattr__(self, "weights", (1.0,) * len(self.model.outputs))
+
+    @property
+    def settings(self) -> dict:
+        """The configuration as result.json records it ("settings"), derived from the typed fields."""
+        return settings_record(self)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -130,7 +137,7 @@ class FitResult:
     @property
     def space(self) -> Space:
         assert self.bounds is not None  # set in __post_init__
-        return vector_space(self.names, self.bounds, self.fixed, f"model {self.model.name}", tuple(self.settings.get("log") or ()))
+        return vector_space(self.names, self.bounds, self.fixed, f"model {self.model.name}", self.log)
 
     def integrator_used(self) -> Integrator:
         """The fitted integrator."""
@@ -161,8 +168,8 @@ class FitResult:
         recs = self.recordings if recordings is None else recordings
         if not recs:
             raise ConfigError("no recording: the result was loaded without its data; pass a recording")
-        if self.settings.get("i_limit") is not None:  # a 0.1 result file: the limit was a setting
-            recs = [r.replace(limit=float(self.settings["i_limit"])) for r in recs]
+        if self.limit_setting is not None:  # a 0.1 result file: the limit was a setting
+            recs = [r.replace(limit=self.limit_setting) for r in recs]
         obs, fitted = self.observation, self._fitted(recordings)
         return [
             make_problem(
@@ -218,7 +225,7 @@ class FitResult:
             b = space.bounds
             grid = np.linspace(max(lo, float(b.lower[k])), min(hi, float(b.upper[k])), profile_points)
             u.profile = (grid, profile_fn(x, profile, grid, target, space))
-        return dataclasses.replace(self, _uncertainty=u)
+        return dataclasses.replace(self, uncertainties=u)
 
     def sample(self, draws: int = 1000, chains: int = 4, warmup: int = 1000, seed: int = 0, priors=None) -> "Posterior":
         """NUTS draws of the fitted search vector under the loss's likelihood (Gaussian for sse,
@@ -233,11 +240,6 @@ class FitResult:
         return sample(x, self.target(), self.space, self.observation.loss, draws=draws, chains=chains, warmup=warmup, seed=seed, priors=own)
 
     @property
-    def uncertainties(self) -> "Uncertainty | None":
-        """The uncertainty analysis of a result returned by `uncertainty()`, else None."""
-        return self._uncertainty  # pyright: ignore[reportReturnType]
-
-    @property
     def stats(self) -> dict[str, float]:
         """B, W, M, SD of the per-run best OF (Table 5; SD is the population std, ddof = 0)."""
         f = self.run_of
@@ -250,7 +252,7 @@ class FitResult:
         convention, 70 x 2000 = 140,000)."""
         if self.dups is None:
             return None
-        proposed = self.settings["pop_size"] * (self.iterations + 1)
+        proposed = self.search.pop_size * (self.iterations + 1)
         return {"mean": float(self.dups.mean()), "percent": float(100 * np.mean(self.dups / proposed))}
 
     # -- lmfit's vocabulary -------------------------------------------------------------------
@@ -286,7 +288,7 @@ class FitResult:
     @property
     def ndata(self) -> int:
         """Residuals: samples times compared channels, over every recording."""
-        n = self.settings.get("ndata")
+        n = self.data_points
         if n is None and self.recordings:
             n = sum(len(r) * len(self.model.outputs) for r in self.recordings)
         return int(n or 0)
@@ -325,9 +327,9 @@ class FitResult:
         to the next `fit`, which leaves this result as it is."""
         b = self.bounds
         assert b is not None
-        u = self._uncertainty
-        prec = dict(zip(self.names, self.settings["precision"])) if self.settings.get("precision") else self.model.memory_precision or {}
-        priors = self.settings.get("priors") or {}
+        u = self.uncertainties
+        prec = dict(zip(self.names, self.precision)) if self.precision else self.model.memory_precision or {}
+        priors = self.priors
         out = []
         for k, n in enumerate(self.names):
             se = None
@@ -344,8 +346,8 @@ class FitResult:
                     unit=unit_of(n, self.model),
                     precision=prec.get(n),
                     stderr=se,
-                    local=base_name(n) in (self.settings.get("local") or ()),
-                    scale="log" if n in (self.settings.get("log") or ()) else "linear",
+                    local=base_name(n) in self.local,
+                    scale="log" if n in self.log else "linear",
                     prior=priors.get(n),
                 )
             )
@@ -371,51 +373,8 @@ class FitResult:
         return out
 
     def to_dict(self) -> dict:
-
-        names = self.names
-        return {
-            "format": FORMAT,
-            "version": VERSION,
-            "params": dict(self.best_values),
-            "parameters": self.params.to_dict(),  # value, min, max, vary, unit, precision, stderr
-            "of": self.of,
-            "runs": [
-                {
-                    "of": float(o),
-                    "status": "finite" if np.isfinite(o) else "no finite objective",
-                    "params": dict(zip(names, map(float, p))),
-                    "fes": int(n),
-                    "iterations": int(it),
-                }
-                | ({} if self.dups is None else {"dups": int(self.dups[r])})
-                for r, (o, p, n, it) in enumerate(zip(self.run_of, self.run_params, self.fes, self.iterations))
-            ],
-            "stats": self.stats,
-            "duplicates": self.duplicates,
-            "mean_params": self.mean_params,
-            "polish": self.polish,
-            "settings": dict(self.settings),
-            "timing": self.timing,
-            "model": model_spec(self.model),
-            "names": list(names),
-            "units": {n: unit_of(n, self.model) for n in names},
-            "fixed": self.fixed,
-            "free": [n for n in names if n not in self.fixed],
-            "at_bound": self.at_bound(),
-            "statistics": {
-                "success": self.success,
-                "nfev": self.nfev,
-                "ndata": self.ndata,
-                "nvarys": self.nvarys,
-                "chisqr": self.chisqr,
-                "redchi": self.redchi,
-                "aic": self.aic,
-                "bic": self.bic,
-            },
-            "checks": [f.to_dict() for f in self.checks],
-            "history_best": [float(np.nanmin(h)) if np.any(np.isfinite(h)) else None for h in self.history],
-            "dcjax_version": __version__,
-        }
+        """result.json's content (`dcjax.fitting.result_file.result_record`)."""
+        return result_record(self)
 
     def to_json(self, path: str | Path | None = None, files: Mapping[str, str] | None = None) -> str:
         """result.json's text (strict JSON: a non-finite number is null; `dcjax.fitting.result_file`).

@@ -15,7 +15,13 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import ResultFileError
+from ..models import model_spec
+from ..simulation.integrators import integrator_spec
+from ..version import __version__
+from .vector import unit_of
 
 FORMAT = "dcjax result"
 VERSION = 2  # 2: strict JSON (null for a non-finite number), data paths relative to the result's folder, "files"
@@ -166,3 +172,92 @@ def relative_to(path: str, folder: Path) -> str:
         return Path(os.path.relpath(Path(path).resolve(), folder.resolve())).as_posix()
     except ValueError:  # another drive
         return str(Path(path).resolve())
+
+
+def settings_record(result) -> dict:
+    """A `FitResult`'s configuration as result.json records it ("settings"), from its typed fields."""
+    b, o = result.bounds, result.observation
+    observed = {} if o.plain and result.layout is None else {**o.to_dict(), "names": list(result.names), "local": sorted(result.local)}
+    names = list(result.recording_names)
+    out = (
+        observed
+        | ({"log": list(result.log)} if result.log else {})
+        | ({"priors": dict(result.priors)} if result.priors else {})
+        | {
+            "recording": names[0] if len(names) == 1 else names,
+            "data": [dict(src) if isinstance(src, dict) else src for src in result.sources],
+            "model": model_spec(result.model),
+            "joint_weights": None if result.joint_weights is None else list(result.joint_weights),
+            "method": result.search.method,
+            "integrator": integrator_spec(result.integrator),
+            "nd": result.integrator.substeps,
+            "weights": list(result.weights),
+            "bounds": {"lower": np.asarray(b.lower).tolist(), "upper": np.asarray(b.upper).tolist()},
+            "fixed": dict(result.fixed),
+            "x0": result.start or None,
+            "runs": result.search.runs,
+            "budget": result.search.budget,
+            "seed": result.search.seed,
+            "pop_size": result.search.pop_size,
+            "polish": result.search.polish,
+            "memory": result.search.memory,
+            "precision": None if result.precision is None else list(result.precision),
+            "generations": result.search.generations,
+            "strategy": result.search.strategy,
+            "ndata": result.ndata,
+        }
+    )
+    if result.nd_auto is not None:
+        out["nd_auto"] = result.nd_auto
+    if result.limit_setting is not None:
+        out["i_limit"] = result.limit_setting
+    return out
+
+
+def result_record(result) -> dict:
+    """A `FitResult` as result.json holds it (strict JSON once `dcjax.io.files.strict_json` writes it)."""
+
+    names = result.names
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "params": dict(result.best_values),
+        "parameters": result.params.to_dict(),  # value, min, max, vary, unit, precision, stderr
+        "of": result.of,
+        "runs": [
+            {
+                "of": float(o),
+                "status": "finite" if np.isfinite(o) else "no finite objective",
+                "params": dict(zip(names, map(float, p))),
+                "fes": int(n),
+                "iterations": int(it),
+            }
+            | ({} if result.dups is None else {"dups": int(result.dups[r])})
+            for r, (o, p, n, it) in enumerate(zip(result.run_of, result.run_params, result.fes, result.iterations))
+        ],
+        "stats": result.stats,
+        "duplicates": result.duplicates,
+        "mean_params": result.mean_params,
+        "polish": result.polish,
+        "settings": result.settings,
+        "timing": result.timing,
+        "model": model_spec(result.model),
+        "names": list(names),
+        "units": {n: unit_of(n, result.model) for n in names},
+        "fixed": result.fixed,
+        "free": [n for n in names if n not in result.fixed],
+        "at_bound": result.at_bound(),
+        "statistics": {
+            "success": result.success,
+            "nfev": result.nfev,
+            "ndata": result.ndata,
+            "nvarys": result.nvarys,
+            "chisqr": result.chisqr,
+            "redchi": result.redchi,
+            "aic": result.aic,
+            "bic": result.bic,
+        },
+        "checks": [f.to_dict() for f in result.checks],
+        "history_best": [float(np.nanmin(h)) if np.any(np.isfinite(h)) else None for h in result.history],
+        "dcjax_version": __version__,
+    }

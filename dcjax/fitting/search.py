@@ -93,6 +93,38 @@ class Search:
         return dataclasses.replace(self, method=dataclasses.replace(self.strategy, generations=generations))
 
 
+@dataclasses.dataclass(frozen=True)
+class SearchRecord:
+    """The search a result ran, as its file records it (a result loaded from a file need not
+    rebuild the strategy: a user's own may not be importable): the method's name, runs, budget,
+    seed, the population size, the iteration limit, the memory's kind, whether every run was
+    polished, and the strategy object's repr."""
+
+    method: str
+    runs: int
+    budget: int
+    seed: int
+    pop_size: int
+    generations: int | None = None
+    memory: str | None = None
+    polish: bool = False
+    strategy: str = ""
+
+    @classmethod
+    def of(cls, search: Search) -> "SearchRecord":
+        return cls(
+            search.name,
+            search.runs,
+            search.budget,
+            int(search.seed),
+            search.strategy.pop_size,
+            search.generations,
+            None if search.memory is None else search.memory.kind,
+            bool(search.polish),
+            repr(search.strategy),
+        )
+
+
 def search_of(search: "Search | None", legacy: dict, default: "Search") -> Search:
     """`search` (None: `default`) with the 0.2/0.3 keywords of `fit`/`fit_each` (`method`, `runs`,
     `budget`, `seed`, `memory`, `polish`) over it, each with a `DeprecationWarning`; any other
@@ -115,4 +147,4 @@ def search_of(search: "Search | None", legacy: dict, default: "Search") -> Searc
     return dataclasses.replace(search if search is not None else default, **legacy)
 
 
-__all__ = ["LEGACY", "MANY_STEPS", "Search", "search_of"]
+__all__ = ["LEGACY", "MANY_STEPS", "Search", "SearchRecord", "search_of"]

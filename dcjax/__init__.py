@@ -27,7 +27,7 @@ from .fitting.fit import fit  # noqa: E402
 from .fitting.observation import Observation  # noqa: E402
 from .fitting.restore import load_result  # noqa: E402
 from .fitting.result import FailedFit, FitResult  # noqa: E402
-from .fitting.search import Search  # noqa: E402
+from .fitting.search import RunStatus, Search  # noqa: E402
 from .fitting.setup import with_weights  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402
@@ -70,6 +70,7 @@ __all__ = [
     "fit",
     "fit_each",
     "Search",
+    "RunStatus",
     "FailedFit",
     "with_weights",
     "Observation",

@@ -76,3 +76,17 @@ def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
     np.testing.assert_array_equal(old.run_params, new.run_params)
     with pytest.raises(ValueError, match="unknown argument"):
         dcjax.fit(sd1, params="table4", rums=1)
+
+
+def test_each_run_says_how_it_ended():
+    """`FitResult.run_status` and result.json's runs[].status: the budget spent, the iteration
+    limit reached, no finite objective."""
+    sd1 = dcjax.datasets.load("SD1").select(slice(0, 201))
+    limited = dcjax.fit(sd1, params="table4", search=Search(dcjax.strategies.DERand1Exp(generations=3), runs=1, budget=1400))
+    spent = dcjax.fit(sd1, params="table4", search=Search(runs=2, budget=140))
+    params = dcjax.DC().parameters("table4")
+    params["La"].set(value=0.0, vary=False)  # every simulation divides by zero
+    broken = dcjax.fit(sd1, params=params, search=Search(runs=1, budget=140))
+    assert limited.run_status == (dcjax.RunStatus.GENERATIONS,) and spent.run_status == (dcjax.RunStatus.BUDGET,) * 2
+    assert broken.run_status == (dcjax.RunStatus.NON_FINITE,) and not broken.success
+    assert [r["status"] for r in broken.to_dict()["runs"]] == ["non-finite"]

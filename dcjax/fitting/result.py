@@ -27,7 +27,7 @@ from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
 from .observation import Observation
 from .result_file import relative_to, result_record, settings_record
-from .search import SearchRecord
+from .search import RunStatus, SearchRecord
 from .vector import base_name, rows_of, transferred, unit_of
 
 
@@ -256,6 +256,22 @@ class FitResult:
         return {"mean": float(self.dups.mean()), "percent": float(100 * np.mean(self.dups / proposed))}
 
     # -- lmfit's vocabulary -------------------------------------------------------------------
+    @property
+    def run_status(self) -> tuple[RunStatus, ...]:
+        """How each run ended: its objective not finite, its polish at its step limit, the
+        strategy's iteration limit reached, or its budget spent."""
+        conv = (self.polish or {}).get("converged")
+        gens = self.search.generations
+
+        def status(r: int) -> RunStatus:
+            if not np.isfinite(self.run_of[r]):
+                return RunStatus.NON_FINITE
+            if conv is not None and not conv[r]:
+                return RunStatus.POLISH_STEP_LIMIT
+            return RunStatus.GENERATIONS if gens is not None and self.iterations[r] >= gens else RunStatus.BUDGET
+
+        return tuple(status(r) for r in range(len(self.run_of)))
+
     @property
     def success(self) -> bool:
         """Every run ended with a finite objective and, with the polish, every polish converged

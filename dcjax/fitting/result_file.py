@@ -227,13 +227,15 @@ def result_record(result) -> dict:
         "runs": [
             {
                 "of": float(o),
-                "status": "finite" if np.isfinite(o) else "no finite objective",
+                "status": status.value,
                 "params": dict(zip(names, map(float, p))),
                 "fes": int(n),
                 "iterations": int(it),
             }
             | ({} if result.dups is None else {"dups": int(result.dups[r])})
-            for r, (o, p, n, it) in enumerate(zip(result.run_of, result.run_params, result.fes, result.iterations))
+            for r, (o, p, n, it, status) in enumerate(
+                zip(result.run_of, result.run_params, result.fes, result.iterations, result.run_status)
+            )
         ],
         "stats": result.stats,
         "duplicates": result.duplicates,

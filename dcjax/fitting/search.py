@@ -6,6 +6,7 @@ evaluations of 1.1 ms). Chosen at equal wall time on 476 servo logs, 128 DC reco
 real EMPS axis: `python -m experiments.bench_many` (`experiments/BENCHMARKS.md`)."""
 
 import dataclasses
+import enum
 
 import numpy as np
 
@@ -93,6 +94,15 @@ class Search:
         return dataclasses.replace(self, method=dataclasses.replace(self.strategy, generations=generations))
 
 
+class RunStatus(enum.Enum):
+    """How a run ended (a result's `run_status`, result.json's `runs[].status`)."""
+
+    BUDGET = "budget"  # its FEs were spent
+    GENERATIONS = "generations"  # it reached the strategy's iteration limit first
+    NON_FINITE = "non-finite"  # no candidate's objective was finite
+    POLISH_STEP_LIMIT = "polish step limit"  # its Levenberg-Marquardt polish stopped at its step limit or failed
+
+
 @dataclasses.dataclass(frozen=True)
 class SearchRecord:
     """The search a result ran, as its file records it (a result loaded from a file need not
@@ -147,4 +157,4 @@ def search_of(search: "Search | None", legacy: dict, default: "Search") -> Searc
     return dataclasses.replace(search if search is not None else default, **legacy)
 
 
-__all__ = ["LEGACY", "MANY_STEPS", "Search", "SearchRecord", "search_of"]
+__all__ = ["LEGACY", "MANY_STEPS", "RunStatus", "Search", "SearchRecord", "search_of"]

@@ -20,6 +20,7 @@ from ..io.recording import Recording
 from ..models import Model, get_model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
+from ..models.priors import prior_from_spec
 from ..models.space import Space, vector_space
 from ..simulation.integrators import Integrator
 from ..simulation.joint import JointProblem, Layout, grid_length, padded
@@ -364,7 +365,7 @@ class FitResult:
                     stderr=se,
                     local=base_name(n) in self.local,
                     scale="log" if n in self.log else "linear",
-                    prior=priors.get(n),
+                    prior=prior_from_spec(priors[n]) if n in priors else None,
                 )
             )
         return Parameters(out)

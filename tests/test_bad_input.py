@@ -79,7 +79,9 @@ def test_a_result_naming_code_never_imports_it(saved, tmp_path, monkeypatch, cap
         for cmd in commands:
             assert cli.main(cmd) == 2, cmd
             assert "--model" in one_line(capsys.readouterr().err)
-        with pytest.raises(ValueError, match="is not built in, and dcjax does not import code a result file names"):
+        with pytest.raises(
+            ValueError, match=r"is not built in \(dc, dc-coulomb, pmsm, servo\), and dcjax does not import code a result file names"
+        ):
             dcjax.load_result(res)
         assert not marker.exists(), spec
     res = str(edited(saved, tmp_path / "i", lambda d: d["settings"].__setitem__("integrator", "evilmod:Evil")))

@@ -19,7 +19,7 @@ from ..models.priors import prior_from_spec
 from ..simulation.integrators import INTEGRATORS, Integrator, get_integrator
 from .observation import Observation
 from .result import FitResult
-from .result_file import MAX_RUNS, MAX_SUBSTEPS, Fields, ResultFileError, integrator_name, model_name, read_record, within_bounds
+from .result_file import MAX_RUNS, MAX_SUBSTEPS, Fields, ResultFileError, builtin_name, read_record, within_bounds
 from .search import SearchRecord
 from .vector import layout_of
 
@@ -45,7 +45,7 @@ def load_result(
     top = Fields(path, read_record(path))
     s = top.sub("settings")
     assert s is not None
-    base = get_model(model if model is not None else model_name(top, MODELS))
+    base = get_model(model if model is not None else builtin_name(top, "model", "dc", MODELS, "model"))
     try:
         observation = Observation.from_settings(s.data)
         m = observation.check(base).observed(base)
@@ -55,7 +55,7 @@ def load_result(
     params = top.named_numbers("params", names)
     nd = s.integer("nd", 1, MAX_SUBSTEPS, default=1)
     if integrator is None:
-        integrator = get_integrator(integrator_name(s, (*INTEGRATORS, "discrete")), nd)
+        integrator = get_integrator(builtin_name(s, "integrator", "rk4", (*INTEGRATORS, "discrete"), "integrator"), nd)
     elif not isinstance(integrator, Integrator):
         raise ConfigError(f"integrator must be a dcjax.Integrator, got {integrator!r}")
     b = s.sub("bounds")

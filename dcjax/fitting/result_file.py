@@ -129,27 +129,17 @@ def read_record(path: Path) -> dict:
     return d
 
 
-def model_name(record: Fields, builtin: Mapping) -> str:
-    """The result's model if it is a built-in name, else a one-line error: the file names code."""
-    spec = record.text("model", default="dc")
+def builtin_name(record: Fields, field: str, default: str, builtin, argument: str) -> str:
+    """The result's `field` (its model, or settings.integrator) where it is a built-in name, else a
+    one-line error: the file names code, which dcjax does not import on its word (`argument`: how
+    the caller gives it instead)."""
+    spec = record.text(field, default=default)
     assert spec is not None
     if spec.lower() in builtin:
         return spec.lower()
     raise ResultFileError(
-        f"{record.path}: the result's model {spec!r} is not built in, and dcjax does not import code a result file "
-        f"names: give it yourself as model={spec!r}"
-    )
-
-
-def integrator_name(record: Fields, builtin) -> str:
-    """settings.integrator if it is a built-in name (or a discrete-time model's "discrete")."""
-    spec = record.text("integrator", default="rk4")
-    assert spec is not None
-    if spec.lower() in builtin:
-        return spec.lower()
-    raise ResultFileError(
-        f"{record.path}: settings.integrator {spec!r} is not built in ({', '.join(builtin)}), and dcjax does not "
-        "import code a result file names: give it yourself (load_result(path, integrator=...))"
+        f"{record.path}: {record.where}{field} {spec!r} is not built in ({', '.join(builtin)}), and dcjax does not import code a "
+        f"result file names: give it yourself as {argument}={spec!r}"
     )
 
 

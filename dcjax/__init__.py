@@ -25,6 +25,7 @@ from .errors import ConfigError, DataError, DcjaxError, ModelError  # noqa: E402
 from .fitting.each import fit_each  # noqa: E402
 from .fitting.fit import fit  # noqa: E402
 from .fitting.observation import Observation  # noqa: E402
+from .fitting.parameter_spec import ParameterSpec  # noqa: E402
 from .fitting.restore import load_result  # noqa: E402
 from .fitting.result import FailedFit, FitResult  # noqa: E402
 from .fitting.search import RunStatus, Search  # noqa: E402
@@ -92,6 +93,7 @@ __all__ = [
     "MEMORIES",
     "Parameter",
     "Parameters",
+    "ParameterSpec",
     "Prior",
     "NormalPrior",
     "LogNormalPrior",

@@ -225,7 +225,7 @@ def test_a_sidecar_value_of_the_wrong_kind_is_an_error(tmp_path, capsys, sidecar
 def test_a_fix_outside_its_bound_is_an_error(tmp_path, capsys):
     args = ["fit", "SD1", *TINY, "--fix", "Ra=42.5", "--bound", "Ra=0:10", "--out", str(tmp_path / "o")]
     assert cli.main(args) == 2
-    assert "--fix Ra=42.5 lies outside --bound Ra=0:10" in one_line(capsys.readouterr().err)
+    assert "fixed Ra=42.5 lies outside its range 0:10" in one_line(capsys.readouterr().err)
 
 
 @pytest.mark.parametrize(

@@ -155,7 +155,7 @@ def test_initial_specs(sd1):
         (["--initial", "omega=sideways"], "number, measured, derivative or fit"),
         (["--initial", "theta=0"], "unknown state 'theta'"),
         (["--local", "Tla"], "--local needs a joint fit"),
-        (["--local", "Rx", "SD2"], "--local: unknown parameter Rx"),
+        (["--local", "Rx", "SD2"], "local: unknown parameter Rx"),
         (["--offset", "u_a"], "offset: u_a is not a measured channel"),
         (["--delay", "i_a"], "delay: i_a is not an input"),
         (["--loss", "l3"], "loss must be sse, l1 or huber:DELTA"),

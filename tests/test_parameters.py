@@ -121,3 +121,19 @@ def test_fit_each_takes_one_parameters_per_recording():
     assert isinstance(each[1], dcjax.FitResult) and each[1].params["Ra"].min == 30.0 and 30.0 <= each[1].params["Ra"] <= 50.0
     with pytest.raises(ValueError, match="one entry per recording"):
         dcjax.fit_each([a, b], params=[pa])
+
+
+def test_a_parameter_spec_is_the_parameters_in_short():
+    """`dcjax.ParameterSpec`: a preset with ranges, known and start values gives the `Parameters`
+    the command line's --bounds/--bound/--fix/--x0 give; a known value outside its range is an error."""
+    sd1 = dcjax.datasets.load("SD1")
+    spec = dcjax.ParameterSpec("table4", ranges={"Ra": (0.0, 50.0), "offset_i_a": (-0.1, 0.1)}, fixed={"Tlc": 0.0}, start={"J": 2e-5},
+                               log=("Tlb",))  # fmt: skip
+    p = spec.resolve(dcjax.DC(), sd1)
+    assert (p["Ra"].min, p["Ra"].max) == (0.0, 50.0) and p["Tlc"].vary is False and p["J"].value == 2e-5
+    assert p["Tlb"].scale == "log" and (p["offset_i_a"].min, p["offset_i_a"].max) == (-0.1, 0.1)
+    assert (p["La"].min, p["La"].max) == (dcjax.DC().parameters("table4")["La"].min, dcjax.DC().parameters("table4")["La"].max)
+    with pytest.raises(ValueError, match="fixed Ra=60 lies outside its range 0:50"):
+        dcjax.ParameterSpec(ranges={"Ra": (0.0, 50.0)}, fixed={"Ra": 60.0})
+    with pytest.raises(ValueError, match="local: needs a joint fit"):
+        dcjax.ParameterSpec(local=("Tla",)).resolve(dcjax.DC(), [sd1])

@@ -10,7 +10,7 @@ from tqdm import tqdm
 from ..fitting.each import fit_each
 from ..fitting.result import FailedFit
 from ..fitting.summary import summary_rows, write_summary
-from .fitting import _file_params, _load, _no_finite_candidate, _prepared
+from .fitting import _load, _no_finite_candidate, _prepared, _spec
 from .output import announce, each_products, file_names, output_folder, remove_earlier, save_fit
 
 COMPILE_EVENTS = (
@@ -102,7 +102,8 @@ def _fit_each_into(folder, args, model, options, split: "_Split") -> int:
     plots = args.plots or "summary"
     n = len(args.data)
     load = split.timed("load+checks", lambda data: _prepared(_load(data, args, model), args, model))
-    params = split.timed("estimate", lambda rec: _file_params(args, model, rec))
+    spec = _spec(args, model)
+    params = split.timed("estimate", lambda rec: spec.resolve(model, [rec]))
     results = fit_each(args.data, model, params, load=load, **options)
     for k, r in enumerate(results):  # a fit with no finite candidate is a failed file, not parameters
         why = None if isinstance(r, FailedFit) else _no_finite_candidate(r)

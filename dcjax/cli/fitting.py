@@ -7,19 +7,17 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import fit_findings
-from ..analysis.estimate import auto_bounds
 from ..errors import ConfigError
 from ..fitting.fit import fit
 from ..fitting.observation import Observation
+from ..fitting.parameter_spec import ParameterSpec
 from ..fitting.search import Search
 from ..fitting.setup import with_weights
-from ..fitting.vector import base_name, sidecar_preset, unit_of
+from ..fitting.vector import base_name, unit_of
 from ..io import datasets
 from ..io.loading import Reading, load_recording, preprocess
 from ..io.units import parse_mapping
 from ..models import DiscreteModel
-from ..models.bounds import Bounds, resolve_bounds
-from ..models.parameters import Parameter, Parameters
 from ..simulation.integrators import INTEGRATORS, AutoSubsteps
 from ..simulation.losses import get_loss
 from ..strategies.memory import MEMORIES
@@ -68,35 +66,34 @@ def _nd(text: str):
         raise ConfigError(f"--nd must be a positive integer or 'auto', got {text!r}") from None
 
 
-def _bounds(args, model, recs):
-    """--lower/--upper, --bounds (a preset or auto from every recording of the fit; default the
-    sidecar's preset, else auto; auto with a --bound range for every parameter estimates nothing)
-    and the --bound overrides of the model's parameters over them. Returns (Bounds, start values of
-    the auto estimate)."""
-
-    recs = recs if isinstance(recs, list) else [recs]
+def _spec(args, model):
+    """The fit's parameters as the flags give them, one `ParameterSpec`: --bounds (a preset or
+    auto; default the sidecar's preset, else auto) or --lower/--upper, --bound, --fix, --x0, --log,
+    --local, --precision."""
     if (args.lower is None) != (args.upper is None):
         raise ConfigError("--lower and --upper must be given together")
-    start = {}
-    given = {k: v for k, v in _named_ranges(args.bound, "--bound").items() if k in model.names or not _observed(k)}
-    if args.lower is not None:
-        if args.bounds is not None:
-            raise ConfigError("give either --bounds or --lower/--upper, not both")
-        bounds = Bounds(_floats(args.lower, "--lower", model.n_params), _floats(args.upper, "--upper", model.n_params), model.names)
-    else:
-        preset = args.bounds or sidecar_preset(recs, model)
-        if preset.lower() == "auto" and set(model.names) <= set(given):  # --bound gave every range: nothing to estimate
-            bounds = Bounds([given[n][0] for n in model.names], [given[n][1] for n in model.names], model.names)
-        elif preset.lower() == "auto":
-            bounds, start, _ = auto_bounds(recs, model)
-        else:
-            bounds = resolve_bounds(model, preset)
-    return resolve_bounds(model, bounds, given), start
-
-
-def _observed(name: str) -> bool:
-    """A name of the experiment's parameters (not the model's): y0_*, offset_*, delay_*."""
-    return name.startswith(("y0_", "offset_", "delay_"))
+    if args.lower is not None and args.bounds is not None:
+        raise ConfigError("give either --bounds or --lower/--upper, not both")
+    lower = None if args.lower is None else _floats(args.lower, "--lower", model.n_params)
+    upper = None if args.upper is None else _floats(args.upper, "--upper", model.n_params)
+    precision = None
+    if args.precision is not None:
+        precision = (
+            _named_floats(args.precision, "--precision")
+            if "=" in args.precision
+            else _floats(args.precision, "--precision", model.n_params)
+        )
+    return ParameterSpec(
+        args.bounds,
+        lower,
+        upper,
+        _named_ranges(args.bound, "--bound"),
+        _named_floats(args.fix, "--fix"),
+        _named_floats(args.x0, "--x0"),
+        _names(args.log, "--log"),
+        _names(args.local, "--local"),
+        precision,
+    )
 
 
 def _options(args, model) -> dict:
@@ -147,16 +144,6 @@ def _search(args, recs=()):
     return search if args.generations is None else search.with_generations(args.generations)
 
 
-def _precision(args, model) -> dict[str, float]:
-    if args.precision is None:
-        return {}
-    if "=" in args.precision:
-        given = _named_floats(args.precision, "--precision")
-        model.check_names(given)
-        return given
-    return dict(zip(model.names, _floats(args.precision, "--precision", model.n_params)))
-
-
 def _prepared(rec, args, model):
     """The recording as the flags ask: --limit (also on an embedded data set), --weights."""
 
@@ -167,75 +154,10 @@ def _prepared(rec, args, model):
     return rec
 
 
-def _file_params(args, model, rec):
-    """A fit's `Parameters`: ranges from --bounds/--lower/--upper/--bound (default its sidecar's
-    preset, else auto from every recording `rec`), --fix, start values from --x0 (else the auto
-    estimate's, where inside the ranges), --precision, --local; then the experiment's parameters
-    (y0_*, offset_*, delay_*) that --bound, --fix, --x0 or --local name."""
-
-    recs = rec if isinstance(rec, list) else [rec]
-    bounds, start = _bounds(args, model, recs)
-    local = set(_names(args.local, "--local"))
-    unknown = [n for n in local if n not in model.names and not _observed(n)]
-    if unknown:
-        raise ConfigError(
-            f"--local: unknown parameter {', '.join(unknown)}; model {model.name} has {', '.join(model.names)} "
-            "(and the fit's offset_CH, delay_IN)"
-        )
-    if local and len(recs) < 2:
-        raise ConfigError("--local needs a joint fit of several recordings (each gets its own value)")
-    fixed_all = _named_floats(args.fix, "--fix")
-    x0_all = _named_floats(args.x0, "--x0")
-    for n, v in fixed_all.items():
-        lo_n, hi_n = _named_ranges(args.bound, "--bound").get(n, (-float("inf"), float("inf")))
-        if not lo_n <= v <= hi_n:
-            raise ConfigError(
-                f"--fix {n}={v:g} lies outside --bound {n}={lo_n:g}:{hi_n:g}: a known value is not searched; give one of them"
-            )
-    fixed = {k: v for k, v in fixed_all.items() if not _observed(k)}
-    x0 = {k: v for k, v in x0_all.items() if not _observed(k)}
-    model.check_names(fixed, "fixed parameter")
-    model.check_names(x0, "start value")
-    lo, hi = bounds.lower, bounds.upper
-    if not x0:
-        x0 = {n: v for n, v in start.items() if lo[model.names.index(n)] <= v <= hi[model.names.index(n)]}
-    prec = _precision(args, model)
-    log = set(_names(args.log, "--log"))
-    model.check_names(log, "--log parameter")
-    out = []
-    for k, n in enumerate(model.names):
-        value = fixed.get(n, x0.get(n))
-        out.append(
-            Parameter(
-                n,
-                value=value,
-                min=float(lo[k]),
-                max=float(hi[k]),
-                vary=n not in fixed,
-                unit=model.units.get(n, ""),
-                precision=prec.get(n),
-                local=n in local,
-                scale="log" if n in log else "linear",
-            )
-        )
-    ranges = _named_ranges(args.bound, "--bound")
-    for n in dict.fromkeys(
-        [
-            *(k for k in ranges if _observed(k)),
-            *(k for k in fixed_all if _observed(k)),
-            *(k for k in x0_all if _observed(k)),
-            *(k for k in local if _observed(k)),
-        ]
-    ):
-        lo_n, hi_n = ranges.get(n, (float("-inf"), float("inf")))
-        out.append(Parameter(n, value=fixed_all.get(n, x0_all.get(n)), min=lo_n, max=hi_n, vary=n not in fixed_all, local=n in local))
-    return Parameters(out)
-
-
 def _fit_one(recs, args, model, options, progress):
 
     recs = [_prepared(r, args, model) for r in recs]
-    result = fit(recs, model, _file_params(args, model, recs), progress=progress, **options)
+    result = fit(recs, model, _spec(args, model), progress=progress, **options)
     if args.uncertainty:
         result = result.uncertainty()
     return result

@@ -13,6 +13,7 @@ from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
 from .engine import fit_setups
 from .observation import Observation
+from .parameter_spec import ParameterSpec
 from .result import FailedFit, FitResult
 from .search import Search, search_of
 from .setup import plan
@@ -21,7 +22,7 @@ from .setup import plan
 def fit_each(
     items: Sequence[Recording | str | Path],
     model=None,
-    params: "Parameters | str | Sequence | Callable[[Recording], Parameters] | None" = None,
+    params: "Parameters | ParameterSpec | str | Sequence | Callable[[Recording], Parameters] | None" = None,
     search: Search | None = None,
     *,
     observation: Observation | None = None,

@@ -20,6 +20,7 @@ from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
 from .engine import fit_setups
 from .observation import Observation
+from .parameter_spec import ParameterSpec
 from .result import FitResult
 from .search import Search, search_of
 from .setup import plan
@@ -36,7 +37,7 @@ def recordings_of(data) -> list[Recording]:
 def fit(
     data: Recording | Sequence[Recording],
     model: Model | str | None = None,
-    params: Parameters | str | None = None,
+    params: Parameters | ParameterSpec | str | None = None,
     search: Search | None = None,
     *,
     observation: Observation | None = None,
@@ -48,7 +49,8 @@ def fit(
     of one drive (a joint fit: one parameter set, the OF the mean of theirs or the sum weighted by
     each recording's `joint_weight`).
 
-    `params`: `Parameters` (ranges, fixed values, start values, precisions), a preset name
+    `params`: `Parameters` (ranges, fixed values, start values, precisions), a `ParameterSpec`
+    (the same in short: a preset with ranges, known and start values), a preset name
     (`"table4"`, `"table8"`), `"auto"` (`dcjax.analysis.estimate.auto_bounds`: ranges from an
     equation-error first estimate, which also seeds the search), or None: the recordings'
     sidecar preset where they name one, else `"auto"`. A `Parameter(local=True)` gets one value

@@ -15,7 +15,6 @@ and its start values as unit-cube rows (`start_rows`)."""
 
 import dataclasses
 import re
-import warnings
 from collections.abc import Mapping
 
 import numpy as np
@@ -24,12 +23,13 @@ from ..analysis.estimate import auto_bounds
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..io.units import SI_UNITS
-from ..models import MODELS, Model
+from ..models import Model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space
 from ..simulation.joint import Layout
 from .observation import Observation, derivative_at_start, start_range
+from .parameter_spec import ParameterSpec, sidecar_preset
 
 OFFSET_SHARE = 0.10
 DELAY_SAMPLES = 10.0
@@ -196,6 +196,8 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> tup
     recordings' sidecar preset where they name one, else "auto"), a preset name, "auto"
     (`dcjax.analysis.estimate.auto_bounds`: ranges from an equation-error first estimate, whose
     values seed the search) or `Parameters` (copied; split by `split_parameters`)."""
+    if isinstance(params, ParameterSpec):
+        params = params.resolve(model, recordings)
     if params is None:
         params = sidecar_preset(recordings, model)
     if isinstance(params, str) and params.lower() == "auto":
@@ -213,31 +215,6 @@ def resolve_parameters(params, recordings: list[Recording], model: Model) -> tup
         if p.vary and p.min > p.max:
             raise ConfigError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
     return own, extras
-
-
-def sidecar_preset(recordings: list[Recording], model: Model) -> str:
-    """The bounds the recordings' sidecars name (`"bounds"`), where they all name the same preset
-    of `model`, else "auto". A name that is no preset of any built-in model (a typo) is a
-    one-line error; another model's preset, or sidecars that disagree, a warning."""
-
-    named = {r.metadata.get("bounds") for r in recordings} - {None}
-    if not named:
-        return "auto"
-    known = {p for cls in MODELS.values() for p in cls().preset_names} | set(model.preset_names) | {"auto"}
-    bad = sorted(str(n) for n in named if str(n).lower() not in known)
-    if bad:
-        raise ConfigError(
-            f"the sidecar's bounds {', '.join(map(repr, bad))} is no preset: model {model.name} has "
-            f"{', '.join(model.preset_names) or 'none'}, or auto"
-        )
-    if len(named) > 1 or str(next(iter(named))).lower() not in (*model.preset_names, "auto"):
-        warnings.warn(
-            f"the sidecars' bounds {', '.join(sorted(map(str, named)))} {'differ' if len(named) > 1 else 'is no preset of model ' + model.name}: "
-            "auto bounds (params='PRESET' names one)",
-            stacklevel=3,
-        )
-        return "auto"
-    return str(next(iter(named))).lower()
 
 
 def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:

@@ -83,9 +83,7 @@ class OutputFolder:
         return [p for p in self.earlier(folder) if p.exists()] if folder.is_dir() else []
 
     def _lock(self, folder: Path) -> None:
-
-        if folder.exists() and not folder.is_dir():
-            raise NotADirectoryError(f"--out {folder} is a file, not a folder")
+        """Create `folder` (checked by `_existing` first) and take its lock, or `FolderBusy`."""
         created = not folder.exists()
         try:
             folder.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,7 @@ from ..analysis.checks import Finding
 from ..errors import ConfigError
 from ..io import datasets
 from ..io.files import file_sha256
-from ..io.loading import LOAD_KEYS, Reading, load_recording
+from ..io.loading import LOAD_KEYS, READING_KEYS, Reading, load_recording
 from ..io.recording import Recording
 from ..models import MODELS, Model, get_model
 from ..models.bounds import Bounds
@@ -208,9 +208,9 @@ def _recorded_data(path: Path, settings: Fields, model: Model, allow_changed: bo
             bad = [key for key in kw if key not in LOAD_KEYS]
             if bad:
                 raise ResultFileError(f"{path}: settings.data[{k}].load has unknown field(s) {', '.join(bad)}")
-            try:
-                Reading.from_record(kw)  # the types of its reading options
-                rec = load_recording(file, **{**kw, "model": model})  # the result's model names the channels
+            try:  # the reading options checked by type (`Reading.from_record`); the result's model names the channels
+                kept = {key: v for key, v in kw.items() if key not in READING_KEYS and key != "model"}
+                rec = load_recording(file, reading=Reading.from_record(kw), model=model, **kept)
             except (TypeError, ValueError) as e:
                 raise ResultFileError(f"{path}: settings.data[{k}]: {(str(e).splitlines() or [''])[0]}") from None
         else:

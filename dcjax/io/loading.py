@@ -312,7 +312,8 @@ def _source(path: Path, load: dict, name: str) -> dict:
     return source
 
 
-LOAD_KEYS = (*(f.name for f in dataclasses.fields(Reading)), "window", "every", "trim", "limit", "model")  # a result's "load" record
+READING_KEYS = tuple(f.name for f in dataclasses.fields(Reading))
+LOAD_KEYS = (*READING_KEYS, "window", "every", "trim", "limit", "model")  # a result's "load" record
 
 
 def _no_nan(chans: dict[str, np.ndarray], table: Table, where: str) -> dict[str, np.ndarray]:

@@ -215,15 +215,17 @@ def test_plots_option_and_a_progress_line_per_file(tmp_path, capsys):
     assert [line.split(":")[0] for line in err if line.startswith("[")] == ["[1/2] SD1", "[2/2] SD2"]
     rc = cli.main(["fit", "--each", str(sd[0]), "--runs", "1", "--budget", "140", "--plots", "each", "--out", str(tmp_path / "e")])
     assert rc == 0 and (tmp_path / "e" / "SD1" / "fit.png").is_file()
-    with pytest.raises(SystemExit):
-        cli.main(["fit", str(sd[0]), "--plots", "sometimes"])
+    capsys.readouterr()
+    assert cli.main(["fit", str(sd[0]), "--plots", "sometimes"]) == 2  # the parser's error: one line
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("dcjax: error: argument --plots: invalid choice: 'sometimes'")
     assert cli.main(["fit", str(sd[0]), "--plots", "summary", "--out", str(tmp_path / "x")]) == 2  # goes with --each
     assert cli.main(["fit", *map(str, sd), "--plots", "none", "--runs", "1", "--budget", "140", "--out", str(tmp_path / "j")]) == 0
     assert (tmp_path / "j" / "result.json").is_file() and not (tmp_path / "j" / "fit.png").exists()  # a joint fit without its plot
 
 
 def test_a_zero_at_a_required_parameter_is_a_failed_fit_hint():
-    from dcjax.cli.fitting import bound_hints
+    from dcjax.cli.fit_lines import bound_hints
 
     @dataclasses.dataclass
     class R:

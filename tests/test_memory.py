@@ -252,11 +252,12 @@ def test_cli_memory(tmp_path, capsys):
     assert d["settings"]["memory"] == "ltma-s2" and all(r["iterations"] == 30 for r in d["runs"])
 
 
-def test_cli_rejects_unknown_memory():
+def test_cli_rejects_unknown_memory(capsys):
     from dcjax.cli import main
 
-    with pytest.raises(SystemExit):
-        main(["fit", "SD1", "--memory", "ltma"])
+    assert main(["fit", "SD1", "--memory", "ltma"]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("dcjax: error: argument --memory: invalid choice: 'ltma'")
 
 
 def test_hash_memory_finds_the_same_cell_only():

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 import dcjax
-from dcjax.cli.args import _parser
-from dcjax.cli.fitting import _search
+from dcjax.cli.fit_command import FitCommand
+from dcjax.cli.parser import build_parser
+from dcjax.cli.single import search_for
 from dcjax.fitting.search import MANY_STEPS, Search
 
 PAPER_SEARCH, MANY_SEARCH = Search.paper(), Search.many()
@@ -19,11 +20,15 @@ def recordings(n: int, samples: int) -> list[dcjax.Recording]:
     return [dcjax.Recording(t=t, u_a=np.ones_like(t), i_a=np.ones_like(t), omega=np.ones_like(t), name=f"r{k}") for k in range(n)]
 
 
+def command(argv: list[str]) -> FitCommand:
+    args = build_parser().parse_args(["fit", "a.csv", *argv])
+    args.cleanup = None
+    return FitCommand.of(args)
+
+
 def chosen(argv: list[str], recs) -> tuple:
-    args = _parser().parse_args(["fit", "a.csv", *argv])
-    search = _search(args, recs)
-    assert (search.runs, search.budget) == (args.runs, args.budget)
-    return args.method, args.runs, args.budget, type(search.strategy).__name__
+    search = search_for(command(argv), recs)
+    return search.name, search.runs, search.budget, type(search.strategy).__name__
 
 
 def test_a_joint_fit_of_many_samples_gets_the_short_search():
@@ -42,8 +47,7 @@ def test_a_given_flag_wins_and_the_rest_follow_the_size():
     many = recordings(2, MANY_STEPS)
     assert chosen(["--runs", "3"], many) == (MANY_SEARCH.method, 3, MANY_SEARCH.budget, "DEBest1Bin")
     assert chosen(["--method", "tlbo", "--generations", "5"], many)[:3] == ("tlbo", MANY_SEARCH.runs, MANY_SEARCH.budget)
-    args = _parser().parse_args(["fit", "a.csv", "--generations", "5"])
-    assert _search(args, many).generations == 5
+    assert search_for(command(["--generations", "5"]), many).generations == 5
     assert chosen(["--budget", "900"], recordings(2, 100)) == (PAPER_SEARCH.method, PAPER_SEARCH.runs, 900, "DERand1Exp")
 
 

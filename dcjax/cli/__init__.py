@@ -8,44 +8,21 @@ import warnings
 
 from ..devices import use_compilation_cache, use_compiled_loops, use_host_devices
 from ..errors import DcjaxError
-from ..models import get_model
-from .args import _parser
-from .design import design_cmd
-from .each import fit_each_cmd
-from .fitting import _options, _search, bound_hints, fit_one
+from .commands import COMMANDS
 from .flags import as_flags
-from .output import drop_sidecars
-from .saved import report_cmd, sample_cmd, simulate_cmd, validate_cmd
+from .parser import build_parser
 
-__all__ = ["bound_hints", "entry", "main"]
-
-
-def fit(args) -> int:
-    """`dcjax fit`: one fit of the recordings (a joint fit of several), or `--each` file on its own."""
-
-    model = get_model(args.model)
-    options = _options(args, model)
-    model = options["observation"].check(model).observed(model)  # --measure: the compared states
-    args.data = drop_sidecars(args.data)
-    if args.each:
-        return fit_each_cmd(args, model, options | {"search": _search(args)})
-    return fit_one(args, model, options)
-
-
-COMMANDS = {
-    "fit": fit,
-    "simulate": simulate_cmd,
-    "validate": validate_cmd,
-    "report": report_cmd,
-    "design": design_cmd,
-    "sample": sample_cmd,
-}
+__all__ = ["entry", "main"]
 
 
 def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
     """The command line in this process (tests, notebooks): its exit status; errors as one line on
     stderr. `cleanup`: a list the output folders put their undo on while they are open (`entry`)."""
-    args = _parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except DcjaxError as e:  # a malformed or unknown flag, a missing argument: one line
+        print(f"dcjax: error: {e}", file=sys.stderr)
+        return 2
     args.cleanup = cleanup
 
     use_host_devices()
@@ -59,7 +36,7 @@ def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
     with warnings.catch_warnings():
         warnings.showwarning = _one_line_warning  # inside this block only (catch_warnings restores it)
         try:
-            return COMMANDS[args.command](args)
+            return COMMANDS[args.command].run(args)
         except BrokenPipeError:  # the reader went away (dcjax report RESULT.json | head): not an error
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes stdout
             return 0

@@ -9,9 +9,11 @@ from tqdm import tqdm
 
 from ..fitting.each import fit_each
 from ..fitting.result import FailedFit
+from ..fitting.search import Search
 from ..fitting.summary import summary_rows, write_summary
-from .fitting import _load, _no_finite_candidate, _prepared, _spec
-from .output import announce, each_products, file_names, output_folder, remove_earlier, save_fit
+from .fit_command import FitCommand
+from .fit_lines import no_finite_candidate
+from .output import announce, file_names, remove_earlier, save_fit
 
 COMPILE_EVENTS = (
     "/jax/core/compile/jaxpr_trace_duration",
@@ -79,85 +81,77 @@ def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
     return f"[{k}/{n}] {name}: {status}, {seconds:.3g} s, {n - k} left"
 
 
-def fit_each_cmd(args, model, options) -> int:
+def fit_each_command(command: FitCommand) -> int:
     """`dcjax fit --each`: one fit per file (`dcjax.fit_each`: the files of one structure in one
     compiled call); a file that fails to load, fails a data check or fails to fit is reported and
     the others are fitted. One line per finished file on stderr (a bar on a terminal); the last
-    line splits the wall time."""
+    line splits the wall time. The exit status: 0 all fitted, 1 some, 2 none."""
 
-    with _Split() as split:
-        return _fit_each_files(args, model, options, split)
-
-
-def _fit_each_files(args, model, options, split: "_Split") -> int:
-
-    with output_folder(args, each_products, "an earlier --each run's summary and results") as folder:
-        return _fit_each_into(folder, args, model, options, split)
-
-
-def _fit_each_into(folder, args, model, options, split: "_Split") -> int:
-    """`fit --each` writing into the `OutputFolder` `folder`, after removing the earlier run's
-    files it replaces (--overwrite)."""
-
-    plots = args.plots or "summary"
-    n = len(args.data)
-    load = split.timed("load+checks", lambda data: _prepared(_load(data, args, model), args, model))
-    spec = _spec(args, model)
-    params = split.timed("estimate", lambda rec: spec.resolve(model, [rec]))
-    results = fit_each(args.data, model, params, load=load, **options)
-    for k, r in enumerate(results):  # a fit with no finite candidate is a failed file, not parameters
-        why = None if isinstance(r, FailedFit) else _no_finite_candidate(r)
-        if why is not None and not isinstance(r, FailedFit):
-            results[k] = FailedFit(r.recording.name if r.recording else f"#{k}", why, args.data[k], checks=list(r.checks))
-    split.add("search")
-    out = announce(folder)
-    remove_earlier(folder.replaced)
-    bar = _file_bar(n, args)
-    folders = iter(file_names([r.recording.name for r in results if not isinstance(r, FailedFit) and r.recording is not None]))
-    written: dict[int, str] = {}
-    for k, result in enumerate(results, start=1):
-        t_file = time.perf_counter()
-        if isinstance(result, FailedFit):
-            print(f"{result.name}: failed: {result.error}")
-        else:
-            label = result.recording.name
-            written[k - 1] = next(folders)
-            folder = out / written[k - 1]
-            if args.uncertainty:
-                result = results[k - 1] = result.uncertainty()
-            save_fit(result, folder, plot=plots == "each")
-            at = result.at_bound()
-            warn = [f.label for f in result.checks]
-            print(
-                f"{label}: OF {result.of:.4e}"
-                + (f"; at bound: {', '.join(at)}" if at else "")
-                + (f"; checks: {' '.join(warn)}" if warn else "")
-                + f"; wrote {folder}"
-            )
-        share = 0.0 if isinstance(result, FailedFit) else float(result.timing.get("run_s", 0.0))  # its share of the batch's search
-        bar(
-            _progress_line(
-                k, n, result.name if isinstance(result, FailedFit) else result.recording.name, result, share + time.perf_counter() - t_file
-            )
+    with _Split() as split, command.out as folder:
+        plots = command.plots or "summary"
+        n = len(command.data)
+        model = command.model
+        params = split.timed("estimate", lambda rec: command.params.resolve(model, [rec]))
+        results = fit_each(
+            command.data,
+            model,
+            params,
+            Search.for_steps(0, **command.search),
+            observation=command.observation,
+            integrator=command.integrator,
+            load=split.timed("load+checks", command.loader),
         )
-    bar(None)
-    rows = summary_rows(results, model)
-    for k, row in enumerate(rows):
-        row["folder"] = written.get(k, "")
-    csv_path, png = write_summary(rows, out, model, plot=plots != "none")
-    ok = sum(r["status"] == "ok" for r in rows)
-    flagged = [r["name"] for r in rows if r.get("outlier")]
-    split.add("write+plots")
-    wrote = f"{csv_path} and {png}" if plots != "none" else f"{csv_path}"
-    print(f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {wrote}")
-    print(split.line(n))
+        for k, r in enumerate(results):  # a fit with no finite candidate is a failed file, not parameters
+            why = None if isinstance(r, FailedFit) else no_finite_candidate(r)
+            if why is not None and not isinstance(r, FailedFit):
+                results[k] = FailedFit(r.recording.name if r.recording else f"#{k}", why, command.data[k], checks=list(r.checks))
+        split.add("search")
+        out = announce(folder)
+        remove_earlier(folder.replaced)
+        bar = _file_bar(n, command.progress)
+        folders = iter(file_names([r.recording.name for r in results if not isinstance(r, FailedFit) and r.recording is not None]))
+        written: dict[int, str] = {}
+        for k, result in enumerate(results, start=1):
+            t_file = time.perf_counter()
+            if isinstance(result, FailedFit):
+                print(f"{result.name}: failed: {result.error}")
+            else:
+                label = result.recording.name
+                written[k - 1] = next(folders)
+                where = out / written[k - 1]
+                if command.uncertainty:
+                    result = results[k - 1] = result.uncertainty()
+                save_fit(result, where, plot=plots == "each")
+                at = result.at_bound()
+                warn = [f.label for f in result.checks]
+                print(
+                    f"{label}: OF {result.of:.4e}"
+                    + (f"; at bound: {', '.join(at)}" if at else "")
+                    + (f"; checks: {' '.join(warn)}" if warn else "")
+                    + f"; wrote {where}"
+                )
+            share = 0.0 if isinstance(result, FailedFit) else float(result.timing.get("run_s", 0.0))  # its share of the batch's search
+            name = result.name if isinstance(result, FailedFit) else result.recording.name
+            bar(_progress_line(k, n, name, result, share + time.perf_counter() - t_file))
+        bar(None)
+        rows = summary_rows(results, model)
+        for k, row in enumerate(rows):
+            row["folder"] = written.get(k, "")
+        csv_path, png = write_summary(rows, out, model, plot=plots != "none")
+        ok = sum(r["status"] == "ok" for r in rows)
+        flagged = [r["name"] for r in rows if r.get("outlier")]
+        split.add("write+plots")
+        print(
+            f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {csv_path}"
+            + (f" and {png}" if plots != "none" else "")
+        )
+        print(split.line(n))
     return 0 if ok == len(rows) else 1 if ok else 2
 
 
-def _file_bar(n: int, args):
-    """A per-file reporter: a tqdm bar on a terminal (or with --progress), else one line per file
+def _file_bar(n: int, tty: bool):
+    """A per-file reporter: a tqdm bar (on a terminal, or with --progress), else one line per file
     on stderr; called with a line per finished file, then None."""
-    tty = sys.stderr.isatty() if args.progress is None else bool(args.progress)
     if not tty:
         return lambda line: None if line is None else print(line, file=sys.stderr, flush=True)
     bar = tqdm(total=n, unit="file", desc="files", leave=False, dynamic_ncols=True)

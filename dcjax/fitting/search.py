@@ -71,10 +71,13 @@ class Search:
         return cls(**{"method": "de-best-1-bin", "runs": 2, "budget": 20_000, **changes})
 
     @classmethod
-    def for_steps(cls, steps: int) -> "Search":
+    def for_steps(cls, steps: int, generations: int | None = None, **changes) -> "Search":
         """The default of a fit whose one evaluation integrates `steps` steps (a joint fit's
-        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else `paper()`."""
-        return cls.many() if steps >= MANY_STEPS else cls.paper()
+        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else
+        `paper()`; with `changes` (fields of `Search`) and the strategy's iterations limited to
+        `generations` where given."""
+        search = cls.many(**changes) if steps >= MANY_STEPS else cls.paper(**changes)
+        return search if generations is None else search.with_generations(generations)
 
     @property
     def generations(self) -> int | None:

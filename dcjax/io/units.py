@@ -62,19 +62,6 @@ def unit_factor(channel: str, unit: str, quantity: str | None) -> float:
     raise ConfigError(f"unknown unit {unit!r} for {channel}; accepted: {accepted}")
 
 
-def parse_mapping(text: str | None, what: str) -> dict[str, str]:
-    """`"a=x,b=y"` -> {"a": "x", "b": "y"} (the command line's NAME=VALUE lists)."""
-    if not text:
-        return {}
-    out = {}
-    for item in text.split(","):
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip() or not value.strip():
-            raise ConfigError(f"{what} must be NAME=VALUE pairs separated by commas, got {item!r}")
-        out[key.strip()] = value.strip()
-    return out
-
-
 def sample_times(n: int, dt: float | None = None, rate: float | None = None) -> np.ndarray:
     """t = k dt (k = 0 .. n-1) for a file without a time column; `rate` (Hz) gives dt = 1/rate."""
     if dt is not None and rate is not None:

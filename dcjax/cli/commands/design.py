@@ -4,19 +4,79 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.design import design_input, evaluate_input
-from ..analysis.design_files import noise_from_fit, scales_from_fit, write_design
-from ..errors import ConfigError
-from .args import _named_floats, _named_ranges, _names
-from .output import announce, output_folder
-from .saved import _result
+from ...analysis.design import design_input, evaluate_input
+from ...analysis.design_files import noise_from_fit, scales_from_fit, write_design
+from ...errors import ConfigError
+from ..common import add_output_options, add_result_options, saved_result
+from ..output import announce, output_folder
+from ..values import named_numbers, named_ranges, names
 
 
-def design_cmd(args) -> int:
+def add_parser(sub) -> None:
+    d = sub.add_parser("design", help="design the next experiment's input from a fit (optimal input design)")
+    d.add_argument("result", help="result.json of a fit")
+    d.add_argument("--duration", type=float, required=True, help="length of the test (s)")
+    d.add_argument("--dt", type=float, required=True, help="sample time (s)")
+    d.add_argument("--umin", type=float, default=None, help="lowest level of every designed input (in its unit, e.g. V)")
+    d.add_argument("--umax", type=float, default=None, help="highest level of every designed input")
+    d.add_argument(
+        "--range",
+        type=named_ranges,
+        default={},
+        help="a designed input's own range, NAME=LO:HI pairs over --umin/--umax, e.g. uq=-5:5,ud=-2:2",
+    )
+    d.add_argument(
+        "--keep",
+        type=names,
+        default=(),
+        help="inputs not designed but kept as the fitted recording has them, e.g. ud "
+        "(every other input that is not a constant is designed)",
+    )
+    d.add_argument(
+        "--const",
+        type=named_numbers,
+        default={},
+        help="inputs constant in the designed test, e.g. pp=4 (default: the fitted recording's constants)",
+    )
+    d.add_argument("--hold", type=float, default=None, help="shortest time an input level is held (s; default duration/20)")
+    d.add_argument(
+        "--limit",
+        "--i-limit",
+        dest="limit",
+        type=float,
+        default=None,
+        help="the clamp on the model's limited state (the DC motor: the supply current limit, A; default the fitted recording's)",
+    )
+    d.add_argument(
+        "--criterion", default="d", help="d (D-optimal, default), a (A-optimal) or parameter names, e.g. for the DC motor J,Tla,Tlb,Tlc"
+    )
+    d.add_argument(
+        "--noise",
+        type=named_numbers,
+        default=None,
+        help="noise std. dev. per channel, e.g. for the DC motor i_a=0.05,omega=0.5 (default: the fit's residuals, "
+        "or 1%% of each channel's peak under a full step where the fit left none)",
+    )
+    d.add_argument(
+        "--baseline",
+        action="append",
+        default=[],
+        help="CSV of an input you would run otherwise (columns t and the input, or the input alone on the design's grid); "
+        "the design must then predict smaller standard errors than every baseline in each parameter of the criterion "
+        "(repeatable)",
+    )
+    d.add_argument("--starts", type=int, default=8, help="optimizer starts")
+    d.add_argument("--steps", type=int, default=300, help="optimizer steps per start")
+    d.add_argument("--seed", type=int, default=0)
+    add_output_options(d, "design", "design.json and its plots")
+    add_result_options(d, data=True)
 
-    res = _result(args)
+
+def run(args) -> int:
+
+    res = saved_result(args)
     m = res.model
-    noise = _named_floats(args.noise, "--noise") or None
+    noise = args.noise or None
     if noise is None:
         noise = noise_from_fit(res)
     rec = res.recording
@@ -104,12 +164,12 @@ def _given_inputs(m, rec, t, args) -> dict:
     recording's, over them --const), and the inputs --keep names, as the fitted recording has them
     (held from sample to sample, the last held to the end of the design)."""
 
-    consts = {**(rec.constants if rec is not None else {}), **_named_floats(args.const, "--const")}
+    consts = {**(rec.constants if rec is not None else {}), **args.const}
     bad = [c for c in consts if c not in m.inputs]
     if bad:
         raise ConfigError(f"--const: {', '.join(bad)} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
     given: dict = dict(consts)
-    for c in _names(args.keep, "--keep"):
+    for c in args.keep:
         if c not in m.inputs:
             raise ConfigError(f"--keep: {c} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
         if rec is None:
@@ -125,7 +185,7 @@ def _given_inputs(m, rec, t, args) -> dict:
 
 def _ranges(names, args) -> dict[str, tuple[float, float]]:
     """Each designed input's range: --range NAME=LO:HI, else --umin/--umax."""
-    given = _named_ranges(args.range, "--range")
+    given = args.range
     bad = [c for c in given if c not in names]
     if bad:
         raise ConfigError(f"--range: {', '.join(bad)} is not designed; the designed inputs are {', '.join(names)}")

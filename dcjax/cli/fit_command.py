@@ -1,0 +1,249 @@
+"""`dcjax fit`'s flags (`add_arguments`) and the library's typed objects they make, once
+(`FitCommand.of`): the model, the `Loader` of the data, the `ParameterSpec`, the `Observation`,
+the integrator, the search's changes to the default `Search`, the output folder."""
+
+import argparse
+import dataclasses
+import sys
+from collections.abc import Mapping
+
+from ..errors import ConfigError
+from ..fitting.observation import Observation
+from ..fitting.parameter_spec import ParameterSpec
+from ..fitting.search import MANY_STEPS, Search
+from ..models import MODELS, DiscreteModel, Model, get_model
+from ..simulation.integrators import INTEGRATORS, AutoSubsteps, Integrator
+from ..simulation.losses import get_loss
+from ..strategies import METHODS
+from ..strategies.memory import MEMORIES
+from .common import Loader, add_data_options, add_output_options
+from .output import OutputFolder, drop_sidecars, each_products, fit_products
+from .values import mapping, named_numbers, named_numbers_or_numbers, named_ranges, names, numbers, substeps
+
+
+def add_arguments(f: argparse.ArgumentParser) -> None:
+    """`dcjax fit`'s flags, each made its type as it is parsed (`dcjax.cli.values`)."""
+    f.add_argument("data", nargs="+", help="data file(s) or embedded names (SD1..SD4, MD1..MD4); several = joint fit (see --each)")
+    f.add_argument(
+        "--each",
+        action="store_true",
+        help="fit every file on its own: DIR/<name>/ per file, DIR/summary.csv and DIR/summary.png; "
+        "exit 0 all fitted, 1 some failed, 2 none fitted",
+    )
+    f.add_argument(
+        "--model", default="dc", help=f"{', '.join(MODELS)} (built in; dc the default), package.module:attr or path/to/file.py:Name"
+    )
+    paper, many = Search.paper(), Search.many()
+    f.add_argument(
+        "--method",
+        default=None,
+        help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...); default "
+        f"{paper.method}, and {many.method} for a joint fit of >= {MANY_STEPS:,} samples (many recordings)",
+    )
+    f.add_argument(
+        "--integrator",
+        default=None,
+        choices=list(INTEGRATORS),
+        help="default rk4; diffrax: adaptive, for a stiff model (a discrete-time model takes none)",
+    )
+    f.add_argument("--nd", type=substeps, default=None, help="sub-steps per sample interval (eq. 28), or 'auto' (default 1)")
+    f.add_argument("--runs", type=int, default=None, help=f"default {paper.runs}; {many.runs} for a joint fit of many recordings")
+    f.add_argument(
+        "--budget",
+        type=int,
+        default=None,
+        help=f"fitness evaluations per run; default {paper.budget:,}, {many.budget:,} for a joint fit of many recordings",
+    )
+    f.add_argument("--seed", type=int, default=None)
+    f.add_argument(
+        "--weights", type=numbers, default=None, help="one weight per measured channel, e.g. 1,1 (eq. 27; default all 1 = eq. 24)"
+    )
+    f.add_argument(
+        "--bounds",
+        default=None,
+        help="auto (ranges from an equation-error first estimate) or a preset of the model, e.g. table4, table8 "
+        "(default: the sidecar's 'bounds', else auto)",
+    )
+    f.add_argument(
+        "--bound", type=named_ranges, default={}, help="per-parameter bounds over the preset, e.g. for the DC motor Ra=0:10,J=0:0.1"
+    )
+    f.add_argument(
+        "--log",
+        type=names,
+        default=(),
+        help="parameters searched on a log scale (uniform in decades; each needs a range above 0, "
+        "e.g. --bound Tlc=1e-10:1e-5), e.g. for the DC motor Tlb,Tlc",
+    )
+    f.add_argument("--lower", type=numbers, default=None, help="all lower bounds, comma-separated in the model's order")
+    f.add_argument("--upper", type=numbers, default=None, help="all upper bounds, comma-separated in the model's order")
+    f.add_argument("--fix", type=named_numbers, default={}, help="known parameters, not searched, e.g. for the DC motor Ra=42.5,Tlc=0")
+    f.add_argument(
+        "--x0", type=named_numbers, default={}, help="start values seeding the initial population, e.g. for the DC motor Ra=40,J=2e-5"
+    )
+    f.add_argument("--polish", action="store_true", default=None, help="Levenberg-Marquardt polish of every run (sse and huber losses)")
+    _add_experiment_arguments(f)
+    f.add_argument("--uncertainty", action="store_true", help="standard errors, 95%% intervals and identifiability")
+    f.add_argument("--memory", default=None, choices=list(MEMORIES), help="memory assistance (Section 4.4; ltma-hash: indexed)")
+    f.add_argument(
+        "--precision",
+        type=named_numbers_or_numbers,
+        default=None,
+        help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)",
+    )
+    f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
+    f.add_argument(
+        "--plots",
+        default=None,
+        choices=["each", "summary", "none"],
+        help="with --each: a fit.png per file (each), only summary.png (summary, the default: a file's plot costs more than its "
+        "search at --runs 2), or none; a single or joint fit: none (no fit.png)",
+    )
+    add_output_options(f, "out", "result.json and fit.png")
+    f.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="progress bar on stderr (default: when stderr is a terminal)",
+    )
+    add_data_options(f)
+
+
+def _add_experiment_arguments(f: argparse.ArgumentParser) -> None:
+    g = f.add_argument_group("the experiment: loss, initial state, per-recording parameters, sensors")
+    g.add_argument("--loss", default="sse", help="sse (default: the paper's eq. 24/27), l1 (mean absolute error) or huber:DELTA")
+    g.add_argument(
+        "--normalize",
+        default=None,
+        choices=["peak", "none"],
+        help="peak (default): residuals over each channel's peak; none: raw units, a joint fit pooled by sample count",
+    )
+    g.add_argument(
+        "--initial",
+        type=mapping,
+        default={},
+        help="initial states, STATE=SPEC pairs: a number, measured (default where measured), derivative (default for a "
+        "derivative state) or fit (a free y0_STATE per recording), e.g. for the DC motor omega=fit",
+    )
+    g.add_argument(
+        "--local",
+        type=names,
+        default=(),
+        help="parameters with one value per recording of a joint fit, e.g. for the DC motor Tla or Tla,offset_i_a (listed as Tla[0], Tla[1], ...)",
+    )
+    g.add_argument(
+        "--hold",
+        type=mapping,
+        default={},
+        help="how an input acts between its samples, INPUT=linear|zoh pairs (default linear, "
+        "eq. 29; zoh: held until the next sample, as a drive's PWM updated once per sample), e.g. for the DC motor u_a=zoh",
+    )
+    g.add_argument(
+        "--measure",
+        type=names,
+        default=None,
+        help="the states compared with the recording (default: the model's measured states), "
+        "e.g. for the DC motor with only its speed logged omega; a column named after another state still gives its initial state",
+    )
+    g.add_argument(
+        "--offset",
+        type=names,
+        default=(),
+        help="measured channels with a free additive sensor offset offset_CH (range +-10%% of "
+        "the peak; --bound offset_CH=LO:HI), e.g. for the DC motor i_a",
+    )
+    g.add_argument(
+        "--delay",
+        type=names,
+        default=(),
+        help="inputs with a free delay delay_IN in seconds (range 0..10 samples; --bound delay_IN=LO:HI), e.g. for the DC motor u_a",
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class FitCommand:
+    """`dcjax fit` as the library's typed objects: the `model` (its compared states those of
+    --measure), the `data` and their `loader`, the `params`, the `observation`, the `integrator`
+    (None: a discrete-time model's own), `search` the flags' changes to the default `Search` of
+    the recordings (`Search.for_steps`), `each` (one fit per file), the analyses and outputs."""
+
+    data: tuple[str, ...]
+    model: Model
+    loader: Loader
+    params: ParameterSpec
+    observation: Observation
+    integrator: Integrator | AutoSubsteps | None
+    search: Mapping
+    out: OutputFolder
+    each: bool = False
+    uncertainty: bool = False
+    plots: str | None = None
+    progress: bool = False
+
+    @property
+    def substeps(self) -> int:
+        """The sub-steps of one sample interval (1 for `AutoSubsteps`, which starts there)."""
+        return getattr(self.integrator, "substeps", 1)
+
+    @classmethod
+    def of(cls, args: argparse.Namespace) -> "FitCommand":
+        """The command of `dcjax fit`'s parsed flags (`add_arguments`); a flag that does not fit
+        another, or the model, is a one-line `ConfigError` naming it."""
+        if (args.lower is None) != (args.upper is None):
+            raise ConfigError("--lower and --upper must be given together")
+        if args.lower is not None and args.bounds is not None:
+            raise ConfigError("give either --bounds or --lower/--upper, not both")
+        if args.local and (args.each or len(args.data) < 2):
+            raise ConfigError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
+        if args.plots not in (None, "none") and not args.each:
+            raise ConfigError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
+        observation = Observation(get_loss(args.loss, args.normalize), args.initial, args.offset, args.delay, args.measure, args.hold)
+        model = get_model(args.model)
+        model = observation.check(model).observed(model)  # --measure: the compared states
+        if args.weights is not None and len(args.weights) != len(model.outputs):
+            raise ConfigError(
+                f"--weights must be {len(model.outputs)} comma-separated numbers ({', '.join(model.outputs)}), got {len(args.weights)}"
+            )
+        if args.limit is not None and not model.has_limit:
+            raise ConfigError(
+                f"--limit: model {model.name} clamps no state (it has no Model.limited_state or clamp of its own); its states are "
+                f"{', '.join(model.states)}"
+            )
+        search = {
+            k: getattr(args, k) for k in ("method", "runs", "budget", "seed", "polish", "generations") if getattr(args, k) is not None
+        }
+        if args.memory is not None:
+            search["memory"] = MEMORIES[args.memory]
+        return cls(
+            tuple(drop_sidecars(args.data)),
+            model,
+            Loader.of(args, model, args.weights),
+            ParameterSpec(args.bounds, args.lower, args.upper, args.bound, args.fix, args.x0, args.log, args.local, args.precision),
+            observation,
+            _integrator(model, args.integrator, args.nd),
+            search,
+            OutputFolder(
+                args.out,
+                each_products if args.each else fit_products,
+                bool(args.overwrite),
+                "an earlier --each run's summary and results" if args.each else "an earlier fit's result.json",
+                args.cleanup,
+            ),
+            bool(args.each),
+            bool(args.uncertainty),
+            args.plots,
+            sys.stderr.isatty() if args.progress is None else bool(args.progress),
+        )
+
+
+def _integrator(model: Model, name: str | None, nd: int | str | None) -> Integrator | AutoSubsteps | None:
+    """--integrator with --nd (default rk4 at 1 sub-step); none for a discrete-time model."""
+    if isinstance(model, DiscreteModel):
+        if name is not None or nd not in (None, 1):
+            raise ConfigError(
+                f"model {model.name} is a discrete-time model (update(c, u, y, dt) per sample): --integrator and --nd do not apply"
+            )
+        return None
+    step = INTEGRATORS[name or "rk4"]
+    if nd == "auto":
+        return AutoSubsteps(integrator=step())
+    return step(substeps=1 if nd is None else int(nd))

@@ -13,6 +13,7 @@ objects (`Parameters`, a strategy, an integrator, a memory, recordings with thei
 limit) and calls `fit`."""
 
 import dataclasses
+import inspect
 import warnings
 from typing import ClassVar
 
@@ -44,17 +45,20 @@ PARAM_NAMES: tuple[str, ...] = NAMES
 TABLE4, TABLE8 = (Bounds(p.lower, p.upper, NAMES) for p in (table4(), table8()))
 
 
+Leaf = Float[Array, "*batch"]  # a parameter's value, with any leading batch axes
+
+
 class Params(eqx.Module):
     """The seven parameters of the paper's DC drive (Table 1) as a structured module (0.1).
     Leaves may carry leading batch axes."""
 
-    Ra: Float[Array, "*batch"]
-    La: Float[Array, "*batch"]
-    cm: Float[Array, "*batch"]
-    J: Float[Array, "*batch"]
-    Tla: Float[Array, "*batch"]
-    Tlb: Float[Array, "*batch"]
-    Tlc: Float[Array, "*batch"]
+    Ra: Leaf
+    La: Leaf
+    cm: Leaf
+    J: Leaf
+    Tla: Leaf
+    Tlb: Leaf
+    Tlc: Leaf
 
     names: ClassVar[tuple[str, ...]] = NAMES
 
@@ -196,29 +200,21 @@ def _fit_with_starts(recs, m, params, starts, search, integ, progress) -> FitRes
     return fit_setups(p, [p.setup(recs, params, starts=starts)], progress)[0]
 
 
-def identify_each(
-    recordings,
-    bounds=None,
-    x0=None,
-    *,
-    method="de-rand-1-exp",
-    integrator="rk4",
-    nd=1,
-    weights=None,
-    runs=50,
-    budget=140_000,
-    seed=0,
-    polish=False,
-    pop_size=70,
-    i_limit=None,
-    memory=None,
-    precision=None,
-    generations=None,
-    model=None,
-    fixed=None,
-) -> list[FitResult]:
+EACH_OPTIONS = tuple(
+    "method integrator nd weights runs budget seed polish pop_size i_limit memory precision generations model fixed".split()
+)
+
+
+def identify_each(recordings, bounds=None, x0=None, **options) -> list[FitResult]:
     """Deprecated (0.1): `dcjax.fit_each`; the same bits. Raises what a recording raises."""
     warn_deprecated("dcjax.fitting.identify_each(...)", "dcjax.fit_each(...)")
+    unknown = sorted(set(options) - set(EACH_OPTIONS))
+    if unknown:
+        raise ConfigError(f"identify_each: unknown option {', '.join(unknown)}; it takes {', '.join(EACH_OPTIONS)} (as identify)")
+    defaults = {k: p.default for k, p in inspect.signature(identify).parameters.items()}  # identify's, spelled once
+    o = {k: options.get(k, defaults[k]) for k in EACH_OPTIONS}
+    method, integrator, nd, weights, runs, budget, seed, polish = (o[k] for k in EACH_OPTIONS[:8])
+    pop_size, i_limit, memory, precision, generations, model, fixed = (o[k] for k in EACH_OPTIONS[8:])
     m = get_model(model)
     recs = [_recordings(r, m, weights, None, i_limit)[0] for r in recordings]
     bounds = list(bounds) if bounds is not None else [None] * len(recs)

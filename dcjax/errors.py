@@ -38,3 +38,14 @@ class ResultFileError(DataError):
 
     def __init__(self, message: str):
         super().__init__(message)
+
+
+def finite_number(value, what: str, accepted: str = "a number") -> float:
+    """`value` as a finite float, else a one-line `ConfigError`: "`what` must be `accepted`"."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{what} must be {accepted}, got {value!r}") from None
+    if not number == number or number in (float("inf"), float("-inf")):
+        raise ConfigError(f"{what} must be finite, got {value!r}")
+    return number

@@ -14,7 +14,7 @@ dcjax.use_host_devices()
 dcjax.use_compiled_loops()
 
 from dcjax import datasets, fit  # noqa: E402
-from dcjax.fitting.engine import PROGRESS_CHUNKS  # noqa: E402
+from dcjax.fitting.runs import PROGRESS_CHUNKS  # noqa: E402
 
 
 def main(repeats: int = 6, runs: int = 50):

@@ -10,7 +10,7 @@ import pytest
 
 import dcjax
 from dcjax import cli
-from dcjax.fitting.engine import recorded
+from dcjax.fitting.outcome import recorded
 from dcjax.fitting.observation import Observation, derivative_at_start
 from dcjax.fitting.setup import Search, plan
 from dcjax.io.numpy_simulator import simulate_numpy

@@ -9,8 +9,7 @@ import pytest
 import dcjax
 from dcjax.cli.fit_command import FitCommand
 from dcjax.cli.parser import build_parser
-from dcjax.cli.single import search_for
-from dcjax.fitting.search import MANY_STEPS, Search
+from dcjax.fitting.search import MANY_STEPS, Search, search_of
 
 PAPER_SEARCH, MANY_SEARCH = Search.paper(), Search.many()
 
@@ -24,6 +23,12 @@ def command(argv: list[str]) -> FitCommand:
     args = build_parser().parse_args(["fit", "a.csv", *argv])
     args.cleanup = None
     return FitCommand.of(args)
+
+
+def search_for(c: FitCommand, recs) -> Search:
+    """The search `dcjax.fit` runs for the command's changes (`search_of` over `Search.for_steps`)."""
+    steps = sum(len(r.t) for r in recs) * getattr(c.integrator, "substeps", 1) if len(recs) > 1 else 0
+    return search_of(c.search, {}, Search.for_steps(steps))
 
 
 def chosen(argv: list[str], recs) -> tuple:
@@ -63,16 +68,22 @@ def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
         seen["search"] = p.search
         raise RuntimeError("stop here")
 
-    import dcjax.fitting.fit as fit_module
+    import dcjax.fitting.sets as sets_module
 
-    original = fit_module.fit_setups
-    fit_module.fit_setups = spy
+    original = sets_module.fit_setups
+    sets_module.fit_setups = spy
     try:
         with pytest.raises(RuntimeError, match="stop here"):
             dcjax.fit(many, params="table4")
+        assert seen.pop("search") == Search.many()
+        with pytest.raises(RuntimeError, match="stop here"):
+            dcjax.fit(many, params="table4", search={"runs": 3, "generations": 4})  # changes to the default
+        assert seen["search"] == Search.many(runs=3).with_generations(4)
     finally:
-        fit_module.fit_setups = original
-    assert seen["search"] == Search.many() and plan is dcjax.fitting.setup.plan
+        sets_module.fit_setups = original
+    assert plan is dcjax.fitting.setup.plan
+    with pytest.raises(ValueError, match="search: unknown field.s. rums; changes to the default take method, runs"):
+        dcjax.fit(many, params="table4", search={"rums": 3})
     sd1 = dcjax.datasets.load("SD1").select(slice(0, 201))
     with pytest.warns(DeprecationWarning, match=r"fit's runs=, budget= is deprecated since dcjax 0.4; use search=dcjax.Search"):
         old = dcjax.fit(sd1, params="table4", runs=1, budget=700)

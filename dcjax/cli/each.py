@@ -1,84 +1,15 @@
 """`dcjax fit --each`: one fit per file, each in its own sub-folder of --out, a summary of all,
 and where the command's wall time went."""
 
-import sys
 import time
 
-import jax.monitoring
-from tqdm import tqdm
-
 from ..fitting.each import fit_each
-from ..fitting.result import FailedFit
-from ..fitting.search import Search
+from ..fitting.result import FailedFit, FitResult
 from ..fitting.summary import summary_rows, write_summary
 from .fit_command import FitCommand
-from .fit_lines import no_finite_candidate
+from .flags import as_flags
 from .output import announce, file_names, remove_earlier, save_fit
-
-COMPILE_EVENTS = (
-    "/jax/core/compile/jaxpr_trace_duration",
-    "/jax/core/compile/jaxpr_to_mlir_module_duration",
-    "/jax/core/compile/backend_compile_duration",
-)
-
-
-class _Split:
-    """Where an --each command's wall time goes (its last line). JAX's compilation (tracing,
-    lowering, XLA), wherever it happens (the first estimate's scoring, the search, the summary's
-    simulations), is counted as `compile` (`jax.monitoring`), the rest of each phase as the phase:
-    the time inside a `timed` function goes to its part, the rest between two `add`s to theirs."""
-
-    def __init__(self):
-        self.seconds = {"load+checks": 0.0, "estimate": 0.0, "compile": 0.0, "search": 0.0, "write+plots": 0.0}
-        self._compiled = 0.0
-
-    def _listen(self, event: str, duration_secs: float, **_: str | int) -> None:
-        if event in COMPILE_EVENTS:
-            self._compiled += duration_secs
-
-    def __enter__(self):
-
-        jax.monitoring.register_event_duration_secs_listener(self._listen)
-        self._t, self._c, self._inside, self._inside_c = time.perf_counter(), 0.0, 0.0, 0.0
-        return self
-
-    def __exit__(self, *exc):
-
-        jax.monitoring.unregister_event_duration_listener(self._listen)
-
-    def _book(self, part: str, seconds: float, compiled: float) -> None:
-        self.seconds["compile"] += compiled
-        self.seconds[part] += max(0.0, seconds - compiled)
-
-    def timed(self, part: str, fn):
-        """`fn`, its time (less its compilation) booked to `part` at every call."""
-
-        def call(*a, **kw):
-            t, c = time.perf_counter(), self._compiled
-            try:
-                return fn(*a, **kw)
-            finally:
-                dt, dc = time.perf_counter() - t, self._compiled - c
-                self._book(part, dt, dc)
-                self._inside, self._inside_c = self._inside + dt, self._inside_c + dc
-
-        return call
-
-    def add(self, part: str) -> None:
-        """The time since the last call (or the start) that no `timed` call booked goes to `part`."""
-        t, c = time.perf_counter(), self._compiled
-        self._book(part, t - self._t - self._inside, c - self._c - self._inside_c)
-        self._t, self._c, self._inside, self._inside_c = t, c, 0.0, 0.0
-
-    def line(self, n: int) -> str:
-        return f"{n} files: " + ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items())
-
-
-def _progress_line(k: int, n: int, name: str, result, seconds: float) -> str:
-    """`[k/n] name: ok, OF ..., S s, L left`: S the file's share of its batch's search and its writing."""
-
-    status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"
-    return f"[{k}/{n}] {name}: {status}, {seconds:.3g} s, {n - k} left"
+from .progress import FileBar, WallSplit
 
 
 def fit_each_command(command: FitCommand) -> int:
@@ -87,7 +18,7 @@ def fit_each_command(command: FitCommand) -> int:
     the others are fitted. One line per finished file on stderr (a bar on a terminal); the last
     line splits the wall time. The exit status: 0 all fitted, 1 some, 2 none."""
 
-    with _Split() as split, command.out as folder:
+    with WallSplit() as split, command.out as folder:
         plots = command.plots or "summary"
         n = len(command.data)
         model = command.model
@@ -96,47 +27,47 @@ def fit_each_command(command: FitCommand) -> int:
             command.data,
             model,
             params,
-            Search.for_steps(0, **command.search),
+            command.search,
             observation=command.observation,
             integrator=command.integrator,
             load=split.timed("load+checks", command.loader),
         )
-        for k, r in enumerate(results):  # a fit with no finite candidate is a failed file, not parameters
-            why = None if isinstance(r, FailedFit) else no_finite_candidate(r)
-            if why is not None and not isinstance(r, FailedFit):
-                results[k] = FailedFit(r.recording.name if r.recording else f"#{k}", why, command.data[k], checks=list(r.checks))
         split.add("search")
+        seconds = [0.0] * n
+        for k, r in enumerate(results):  # a fit with no finite candidate is a failed file, not parameters
+            t = time.perf_counter()
+            if isinstance(r, FitResult) and r.failure:
+                results[k] = FailedFit(r.recording.name if r.recording else f"#{k}", r.failure, command.data[k], checks=list(r.checks))
+            elif isinstance(r, FitResult) and command.uncertainty:
+                results[k] = r.uncertainty()
+            seconds[k] = time.perf_counter() - t + (r.timing.get("run_s", 0.0) if isinstance(r, FitResult) else 0.0)
+        fitted = [r for r in results if isinstance(r, FitResult)]
+        at_bound = {id(r): r.at_bound() for r in fitted}
         out = announce(folder)
         remove_earlier(folder.replaced)
-        bar = _file_bar(n, command.progress)
-        folders = iter(file_names([r.recording.name for r in results if not isinstance(r, FailedFit) and r.recording is not None]))
-        written: dict[int, str] = {}
-        for k, result in enumerate(results, start=1):
-            t_file = time.perf_counter()
+        folders = dict(zip(map(id, fitted), file_names([r.recording.name if r.recording else "" for r in fitted])))
+        bar = FileBar(n, command.progress)
+        for k, result in enumerate(results):
+            t = time.perf_counter()
             if isinstance(result, FailedFit):
-                print(f"{result.name}: failed: {result.error}")
+                print(f"{result.name}: failed: {as_flags(result.error)}")
+                name = result.name
             else:
-                label = result.recording.name
-                written[k - 1] = next(folders)
-                where = out / written[k - 1]
-                if command.uncertainty:
-                    result = results[k - 1] = result.uncertainty()
+                where = out / folders[id(result)]
                 save_fit(result, where, plot=plots == "each")
-                at = result.at_bound()
-                warn = [f.label for f in result.checks]
+                at, warn = at_bound[id(result)], [f.label for f in result.checks]
+                name = result.recording.name if result.recording else f"#{k}"
                 print(
-                    f"{label}: OF {result.of:.4e}"
+                    f"{name}: OF {result.of:.4e}"
                     + (f"; at bound: {', '.join(at)}" if at else "")
                     + (f"; checks: {' '.join(warn)}" if warn else "")
                     + f"; wrote {where}"
                 )
-            share = 0.0 if isinstance(result, FailedFit) else float(result.timing.get("run_s", 0.0))  # its share of the batch's search
-            name = result.name if isinstance(result, FailedFit) else result.recording.name
-            bar(_progress_line(k, n, name, result, share + time.perf_counter() - t_file))
-        bar(None)
-        rows = summary_rows(results, model)
-        for k, row in enumerate(rows):
-            row["folder"] = written.get(k, "")
+            bar.done(k + 1, name, result, seconds[k] + time.perf_counter() - t)
+        bar.close()
+        rows = summary_rows(results)
+        for row, result in zip(rows, results):
+            row["folder"] = folders.get(id(result), "")
         csv_path, png = write_summary(rows, out, model, plot=plots != "none")
         ok = sum(r["status"] == "ok" for r in rows)
         flagged = [r["name"] for r in rows if r.get("outlier")]
@@ -147,19 +78,3 @@ def fit_each_command(command: FitCommand) -> int:
         )
         print(split.line(n))
     return 0 if ok == len(rows) else 1 if ok else 2
-
-
-def _file_bar(n: int, tty: bool):
-    """A per-file reporter: a tqdm bar (on a terminal, or with --progress), else one line per file
-    on stderr; called with a line per finished file, then None."""
-    if not tty:
-        return lambda line: None if line is None else print(line, file=sys.stderr, flush=True)
-    bar = tqdm(total=n, unit="file", desc="files", leave=False, dynamic_ncols=True)
-
-    def report(line):
-        if line is None:
-            bar.close()
-        else:
-            bar.update(1)
-
-    return report

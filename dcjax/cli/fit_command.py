@@ -164,7 +164,7 @@ class FitCommand:
     """`dcjax fit` as the library's typed objects: the `model` (its compared states those of
     --measure), the `data` and their `loader`, the `params`, the `observation`, the `integrator`
     (None: a discrete-time model's own), `search` the flags' changes to the default `Search` of
-    the recordings (`Search.for_steps`), `each` (one fit per file), the analyses and outputs."""
+    the fit (as `dcjax.fit` takes them), `each` (one fit per file), the analyses and outputs."""
 
     data: tuple[str, ...]
     model: Model
@@ -178,11 +178,6 @@ class FitCommand:
     uncertainty: bool = False
     plots: str | None = None
     progress: bool = False
-
-    @property
-    def substeps(self) -> int:
-        """The sub-steps of one sample interval (1 for `AutoSubsteps`, which starts there)."""
-        return getattr(self.integrator, "substeps", 1)
 
     @classmethod
     def of(cls, args: argparse.Namespace) -> "FitCommand":

@@ -40,17 +40,6 @@ def bound_hints(result: FitResult) -> list[str]:
     return out
 
 
-def no_finite_candidate(result: FitResult) -> str | None:
-    """The one-line error of a fit none of whose runs found a finite objective, else None."""
-
-    if np.any(np.isfinite(result.run_of)):
-        return None
-    return (
-        f"no run found parameters whose simulation is finite (every OF is inf, {result.nfev:,} evaluations): the model "
-        "blows up over the whole search range; check the bounds, the units and scales (--units, --scale) and the model"
-    )
-
-
 def _truth(recs: list[Recording], names: tuple[str, ...]) -> dict | None:
     """The true parameters of simulated recordings (their metadata), where they all name the same."""
     truth = recs[0].metadata.get("true_params")

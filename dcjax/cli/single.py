@@ -2,18 +2,9 @@
 
 from ..errors import ConfigError
 from ..fitting.fit import fit
-from ..fitting.search import Search
-from ..io.recording import Recording
 from .fit_command import FitCommand
-from .fit_lines import no_finite_candidate, print_fit
+from .fit_lines import print_fit
 from .output import announce, remove_earlier, save_fit
-
-
-def search_for(command: FitCommand, recs: list[Recording]) -> Search:
-    """The search of a fit of `recs`: the flags' changes to the default for its size
-    (`Search.for_steps`: a joint fit of many recordings searches shorter)."""
-    steps = sum(len(r.t) for r in recs) * command.substeps if len(recs) > 1 else 0
-    return Search.for_steps(steps, **command.search)
 
 
 def fit_one(command: FitCommand) -> int:
@@ -25,14 +16,13 @@ def fit_one(command: FitCommand) -> int:
             recs,
             command.model,
             command.params,
-            search_for(command, recs),
+            command.search,
             observation=command.observation,
             integrator=command.integrator,
             progress=command.progress,
         )
-        failed = no_finite_candidate(result)
-        if failed:
-            raise ConfigError(failed)
+        if result.failure:
+            raise ConfigError(result.failure)
         if command.uncertainty:
             result = result.uncertainty()
         announce(folder)  # where it writes, once there is something to write

@@ -2,20 +2,19 @@
 check or prepare fails alone (`FailedFit`) and every other one is fitted, the recordings of one
 structure in one compiled call."""
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
-from ..analysis.checks import ERROR, batch_findings, from_error
-from ..errors import ConfigError, DataError
+from ..errors import ConfigError
 from ..io.loading import load_recording
 from ..io.recording import Recording
 from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
-from .engine import fit_setups
 from .observation import Observation
 from .parameter_spec import ParameterSpec
 from .result import FailedFit, FitResult
-from .search import Search, search_of
+from .search import Search
+from .sets import RecordingSet, failed, fit_sets
 from .setup import plan
 
 
@@ -23,7 +22,7 @@ def fit_each(
     items: Sequence[Recording | str | Path],
     model=None,
     params: "Parameters | ParameterSpec | str | Sequence | Callable[[Recording], Parameters] | None" = None,
-    search: Search | None = None,
+    search: Search | Mapping | None = None,
     *,
     observation: Observation | None = None,
     integrator: Integrator | AutoSubsteps | None = None,
@@ -42,57 +41,41 @@ def fit_each(
     error and every other one is fitted (`on_error="collect"`, the default; `"raise"`: the first
     such error is raised); the findings are in each result's `checks`. `params`: as `fit` takes
     it, for every recording; a list with one entry per item; or a function of the loaded
-    recording returning its `Parameters`. `search`: a `dcjax.Search` (None: `Search.paper()`).
+    recording returning its `Parameters`. `search`: a `dcjax.Search` (None: `Search.paper()`; a dict: changes to it, as `fit` takes them).
     Recordings of one structure (length, channels, limit, free parameters, layout) are fitted in
     one compiled call, with the same results as one fit each (`dcjax.fitting.runs`), with
     `AutoSubsteps` and `progress` too. An error of the batched call itself (not of one recording)
     is raised."""
-    if on_error not in ("collect", "raise"):
-        raise ConfigError(f"on_error must be 'collect' or 'raise', got {on_error!r}")
-    p = plan(model, search_of(search, legacy, Search.paper()), observation=observation, integrator=integrator)
+    p = plan(model, search, observation=observation, integrator=integrator, default=Search.paper(), legacy=legacy)
     if isinstance(params, (list, tuple)) and len(params) != len(items):
         raise ConfigError(f"params: one entry per recording ({len(items)}), got {len(params)}")
     loader = load or (lambda path: load_recording(path, model=p.model))
     out: list = [None] * len(items)
-    loaded: list = []
+    sets, at = [], []
     for k, item in enumerate(items):
         source = None if isinstance(item, Recording) else str(item)
         try:  # one broken recording fails alone, whatever broke in loading it
-            loaded.append((k, item if isinstance(item, Recording) else loader(str(item)), source))
+            rec = item if isinstance(item, Recording) else loader(str(item))
         except Exception as e:
-            out[k] = _failed_or_raise(on_error, item.name if isinstance(item, Recording) else Path(str(item)).stem, e, source)
-    found = batch_findings([r for _, r, _ in loaded], p.model) if checks else [[] for _ in loaded]
-    ready: list = []
-    for (k, rec, source), findings in zip(loaded, found):
-        errors = [f for f in findings if f.severity == ERROR]
-        if errors:
             if on_error == "raise":
-                raise DataError(errors[0].check, f"{rec.name}: {errors[0].message}")
-            out[k] = FailedFit(rec.name, f"{errors[0].label}: {errors[0].message}", source, checks=findings)
+                raise
+            out[k] = failed(item.name if isinstance(item, Recording) else Path(str(item)).stem, e, source)
             continue
-        try:  # one broken recording fails alone, whatever broke in preparing it
-            given = params[k] if isinstance(params, (list, tuple)) else params(rec) if callable(params) else params
-            ready.append((k, p.setup([rec], given, findings=findings)))
-        except Exception as e:
-            out[k] = _failed_or_raise(on_error, rec.name, e, source, findings)
-    for (k, _), res in zip(ready, fit_setups(p, [s for _, s in ready], progress)):
+        sets.append(RecordingSet([rec], _params_of(params, k), rec.name, source))
+        at.append(k)
+    for k, res in zip(at, fit_sets(p, sets, "fleet" if checks else "none", on_error, progress)):
         out[k] = res
     return out
 
 
-def _failed_or_raise(on_error: str, name: str, e: Exception, source, findings=None) -> "FailedFit":
-    """A recording's error: its `FailedFit` (`on_error="collect"`), or raised again (`"raise"`)."""
-    if on_error == "raise":
-        raise e
-    return failed(name, e, source, findings)
+def _one(loader: Callable[[str], Recording], path: str) -> list[Recording]:
+    return [loader(path)]
 
 
-def failed(name: str, e: Exception, source: str | None, findings: list | None = None) -> FailedFit:
-    """The `FailedFit` of a recording whose loading, checks or preparation raised `e`."""
-    named = from_error(e)
-    return FailedFit(
-        name=name,
-        error=(str(e).splitlines() or [type(e).__name__])[0],
-        source=source,
-        checks=list(findings or []) + ([named] if named is not None else []),
-    )
+def _params_of(params, k: int):
+    """Item `k`'s parameters: its entry of a list, a function of its recording, else `params`."""
+    if isinstance(params, (list, tuple)):
+        return params[k]
+    if callable(params):
+        return lambda recordings: params(recordings[0])
+    return params

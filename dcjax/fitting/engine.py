@@ -1,74 +1,18 @@
-"""The engine under `fit` and `fit_each`: the setups' compiled runs (`dcjax.fitting.runs`), the
-optional Levenberg–Marquardt polish of every run, and each setup's `FitResult`, made once
-(`fit_setups`); paper Section 5's automatic sub-steps over the same path (`fit_auto_substeps`)."""
+"""The engine under `fit` and `fit_each`: the setups' compiled runs (`dcjax.fitting.runs`) and
+each setup's `FitResult` (`dcjax.fitting.outcome`), in one call (`fit_setups`); paper Section
+5's automatic sub-steps over the same path (`fit_auto_substeps`)."""
 
 import dataclasses
-import time
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..io.recording import Recording
 from ..simulation.diffrax_reference import reference_simulate_jit, simulation_error
 from ..simulation.integrators import AutoSubsteps
-from ..simulation.joint import stacked_target
-from .polish import polish_batch
+from .outcome import make_result
 from .result import FitResult
 from .runs import run_setups
-from .search import Search, SearchRecord
 from .setup import Plan, Setup
-from .vector import base_name
-
-
-def polish_runs(run_x, setup: Setup):
-    """Levenberg–Marquardt from every run's best: (parameters, OFs, what the polish did)."""
-
-    t0 = time.perf_counter()
-    pol = jax.block_until_ready(polish_batch(jnp.asarray(run_x), stacked_target(setup.target), setup.space))
-    info = {
-        "of_before": np.asarray(pol.of_before).tolist(),
-        "of_after": np.asarray(pol.of_after).tolist(),
-        "steps": np.asarray(pol.steps).tolist(),
-        "converged": np.asarray(pol.converged).tolist(),
-        "time_s": time.perf_counter() - t0,
-    }
-    return np.asarray(pol.x), np.asarray(pol.of_after), info
-
-
-def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | None = None) -> FitResult:
-    """The result of the runs `out` of one setup, after the optional polish (of the setup the runs
-    ran, `ran`: the setup itself or its padded form, `dcjax.fitting.runs.bucketed`)."""
-    run_x = np.asarray(setup.space.to_physical(out.best_x))
-    run_of = np.asarray(out.best_f)
-    polish_info = None
-    if search.polish:
-        run_x, run_of, polish_info = polish_runs(run_x, ran or setup)
-    best = int(np.argmin(run_of))
-    memory = search.memory is not None
-    return FitResult(
-        best_values=dict(zip(setup.space.names, map(float, run_x[best]))),
-        of=float(run_of[best]),
-        run_of=run_of,
-        run_params=run_x,
-        fes=np.asarray(out.fes),
-        iterations=np.asarray(out.iterations),
-        history=np.asarray(out.history),
-        search=SearchRecord.of(search),
-        integrator=setup.integrator,
-        bounds=setup.space.bounds,
-        timing=timing,
-        polish=polish_info,
-        dups=np.asarray(out.dups) if memory else None,
-        memory_chunks=np.asarray(out.chunks) if memory else None,
-        recordings=list(setup.recordings),
-        model=setup.model,
-        fixed=setup.space.fixed,
-        checks=tuple(setup.findings),
-        observation=setup.observation,
-        layout=setup.layout,
-        **recorded(setup, search),
-    )
 
 
 def fit_setups(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:
@@ -77,7 +21,8 @@ def fit_setups(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult
     (as it ran) where the search says so (`plan.integrator` an `AutoSubsteps`: `fit_auto_substeps`)."""
     if isinstance(plan.integrator, AutoSubsteps):
         return fit_auto_substeps(plan, setups, progress)
-    return [make_result(s, plan.search, *ran) for s, ran in zip(setups, run_setups(setups, plan.search, progress))]
+    ran = run_setups(setups, plan.search, progress)
+    return [make_result(s, plan.search, *r) for s, r in zip(setups, ran)]
 
 
 def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:
@@ -153,32 +98,3 @@ def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[Fi
         }
         out.append(dataclasses.replace(result, nd_auto=info))  # a new result with the choice recorded
     return out
-
-
-def recorded(setup: Setup, search: Search) -> dict:
-    """What a result keeps of a fit's setup beyond its objects: the channel and joint weights (the
-    latter where not equal shares: given, or pooled by sample count), each recording's source, the
-    start values, the parameters' own priors, the local and log-scale names, the memory's
-    precisions and the number of residuals."""
-    recs, space = setup.recordings, setup.space
-    weighted = any(r.metadata.get("joint_weight") is not None for r in recs) or len(set(setup.joint_weights)) > 1
-    return dict(
-        weights=tuple(float(w) for w in setup.weights) if setup.weights is not None else (),
-        joint_weights=tuple(float(w) for w in setup.joint_weights) if weighted else None,
-        sources=tuple(_source(r) for r in recs),
-        recording_names=tuple(r.name for r in recs),
-        start=setup.params.start or None,
-        priors={n: p.prior.spec for n, p in setup.params.items() if p.prior is not None and p.vary},  # for the sampler
-        local=tuple(sorted({base_name(n) for n, p in setup.params.items() if p.local})),
-        log=tuple(space.names[k] for k in space.log),
-        precision=None if search.memory is None else tuple(setup.physical_precision()),
-        data_points=int(sum(len(r) * len(setup.model.outputs) for r in recs)),
-    )
-
-
-def _source(r: Recording):
-    """Where a recording came from (its loader's record, else its name), with the limit fitted and
-    each channel's peak (so a validation can tell a unit or scale slip)."""
-    src = r.metadata.get("source", {"name": r.name})
-    peaks = {c: float(np.max(np.abs(v))) for c, v in r.channels.items()}
-    return {**src, "limit": r.limit, "peaks": peaks} if isinstance(src, dict) else src

@@ -10,19 +10,18 @@ states, offsets, delays) are small objects that carry their behaviour; what belo
 (`with_weights`, `Recording.limit`); what belongs to the search (population size, F, CR, a
 limit on the generations) with the strategy object (`dcjax.strategies.DERand1Exp(pop_size=40, f=0.5)`)."""
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
-from ..analysis.checks import ERROR, recording_findings
-from ..errors import ConfigError, DataError
+from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model
 from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
-from .engine import fit_setups
 from .observation import Observation
 from .parameter_spec import ParameterSpec
 from .result import FitResult
-from .search import Search, search_of
+from .search import Search
+from .sets import RecordingSet, fit_sets
 from .setup import plan
 
 
@@ -38,7 +37,7 @@ def fit(
     data: Recording | Sequence[Recording],
     model: Model | str | None = None,
     params: Parameters | ParameterSpec | str | None = None,
-    search: Search | None = None,
+    search: Search | Mapping | None = None,
     *,
     observation: Observation | None = None,
     integrator: Integrator | AutoSubsteps | None = None,
@@ -59,7 +58,8 @@ def fit(
 
     `search`: a `dcjax.Search` (method, runs, budget, seed, memory, polish); None: the paper's
     (`Search.paper()`: DE/rand/1/exp, 50 runs of 140,000 FEs), or for a joint fit of many
-    recordings `Search.many()` (`Search.for_steps`); the result records the search it ran.
+    recordings `Search.many()` (`Search.for_steps`); a dict of changes to that default
+    (`{"runs": 5}`, also `generations`); the result records the search it ran.
     `integrator`: `Euler(substeps=N)`, `RK4(substeps=N)` (the default, N = 1), a
     `dcjax.Integrator` of your own, or `AutoSubsteps(...)`. `observation`: the terms beyond the
     paper's (`dcjax.Observation`: the loss, initial states, sensor offsets, input delays, the
@@ -73,9 +73,6 @@ def fit(
     recordings = recordings_of(data)
     nd = getattr(getattr(integrator, "integrator", integrator), "substeps", 1)
     default = Search.for_steps(sum(len(r) for r in recordings) * nd if len(recordings) > 1 else 0)
-    p = plan(model, search_of(search, legacy, default), observation=observation, integrator=integrator)
-    findings = recording_findings(recordings, p.model)
-    errors = [f for f in findings if f.severity == ERROR]
-    if errors:
-        raise DataError(errors[0].check, errors[0].message)
-    return fit_setups(p, [p.setup(recordings, params, findings=findings)], progress)[0]
+    p = plan(model, search, observation=observation, integrator=integrator, default=default, legacy=legacy)
+    (result,) = fit_sets(p, [RecordingSet(recordings, params)], "each", "raise", progress)
+    return result  # pyright: ignore[reportReturnType]  # "raise": never a FailedFit

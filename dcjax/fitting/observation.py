@@ -23,7 +23,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..analysis.checks import noise_step
-from ..errors import ConfigError
+from ..errors import ConfigError, finite_number
 from ..io.recording import Recording
 from ..models import Model
 from ..simulation.losses import Loss, get_loss
@@ -248,17 +248,7 @@ def initial_spec(spec, state: str = "state") -> "float | str":
         text = spec.strip().lower()
         if text in SPECS:
             return text
-        try:
-            spec = float(text)
-        except ValueError:
-            raise ConfigError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
-    try:
-        value = float(spec)
-    except (TypeError, ValueError):
-        raise ConfigError(f"initial: {state} must be a number, measured, derivative or fit, got {spec!r}") from None
-    if not np.isfinite(value):
-        raise ConfigError(f"initial: {state} must be finite, got {spec!r}")
-    return value
+    return finite_number(spec, f"initial: {state}", "a number, measured, derivative or fit")
 
 
 def initial_value(state: str, spec, model: Model, recording: Recording) -> float:

@@ -274,6 +274,17 @@ class FitResult:
         return tuple(status(r) for r in range(len(self.run_of)))
 
     @property
+    def failure(self) -> str | None:
+        """Why the fit found no parameters at all (no run's objective is finite: the model blows up
+        over the whole search range), one line; None where a run found finite ones."""
+        if np.any(np.isfinite(self.run_of)):
+            return None
+        return (
+            f"no run found parameters whose simulation is finite (every OF is inf, {self.nfev:,} evaluations): the model "
+            "blows up over the whole search range; check the bounds, the units and scales (units=, scale=) and the model"
+        )
+
+    @property
     def success(self) -> bool:
         """Every run ended with a finite objective and, with the polish, every polish converged
         (a polish stopped at its step limit is not a success)."""

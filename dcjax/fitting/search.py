@@ -7,6 +7,7 @@ real EMPS axis: `python -m experiments.bench_many` (`experiments/BENCHMARKS.md`)
 
 import dataclasses
 import enum
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -71,13 +72,10 @@ class Search:
         return cls(**{"method": "de-best-1-bin", "runs": 2, "budget": 20_000, **changes})
 
     @classmethod
-    def for_steps(cls, steps: int, generations: int | None = None, **changes) -> "Search":
+    def for_steps(cls, steps: int) -> "Search":
         """The default of a fit whose one evaluation integrates `steps` steps (a joint fit's
-        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else
-        `paper()`; with `changes` (fields of `Search`) and the strategy's iterations limited to
-        `generations` where given."""
-        search = cls.many(**changes) if steps >= MANY_STEPS else cls.paper(**changes)
-        return search if generations is None else search.with_generations(generations)
+        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else `paper()`."""
+        return cls.many() if steps >= MANY_STEPS else cls.paper()
 
     @property
     def generations(self) -> int | None:
@@ -138,26 +136,42 @@ class SearchRecord:
         )
 
 
-def search_of(search: "Search | None", legacy: dict, default: "Search") -> Search:
-    """`search` (None: `default`) with the 0.2/0.3 keywords of `fit`/`fit_each` (`method`, `runs`,
-    `budget`, `seed`, `memory`, `polish`) over it, each with a `DeprecationWarning`; any other
-    keyword is a one-line error."""
+def search_of(search: "Search | Mapping | None", legacy: dict, default: "Search") -> Search:
+    """`search`: a `Search`; None: `default`; a mapping of changes to `default` (its fields, and
+    `generations`: the strategy's iteration limit), so `{"runs": 5}` is the problem's default
+    search with 5 runs. The 0.2/0.3 keywords of `fit`/`fit_each` (`method`, `runs`, `budget`,
+    `seed`, `memory`, `polish`) go over it, each with a `DeprecationWarning`; any other keyword is
+    a one-line error."""
     unknown = [k for k in legacy if k not in LEGACY]
     if unknown:
         raise ConfigError(
             f"unknown argument(s) {', '.join(unknown)}; fit takes data, model, params, search, observation, integrator, progress"
         )
+    if isinstance(search, Mapping):
+        search = _changed(default, dict(search))
     if search is not None and not isinstance(search, Search):
-        raise ConfigError(f"search must be a dcjax.Search(method=, runs=, budget=, seed=, memory=, polish=), got {search!r}")
+        raise ConfigError(
+            f"search must be a dcjax.Search(method=, runs=, budget=, seed=, memory=, polish=) or a dict of changes to the default, got {search!r}"
+        )
     if not legacy:
         return search if search is not None else default
     warn_deprecated(
         f"fit's {', '.join(f'{k}=' for k in legacy)}",
         f"search=dcjax.Search({', '.join(f'{k}=...' for k in legacy)})",
-        stacklevel=4,
+        stacklevel=5,  # warn_deprecated, search_of, plan, fit: the caller of fit
         since="0.4",
     )
     return dataclasses.replace(search if search is not None else default, **legacy)
+
+
+def _changed(default: Search, changes: dict) -> Search:
+    """`default` with `changes` (fields of `Search`, and `generations`)."""
+    bad = sorted(str(k) for k in changes if k not in (*LEGACY, "generations"))
+    if bad:
+        raise ConfigError(f"search: unknown field(s) {', '.join(bad)}; changes to the default take {', '.join(LEGACY)}, generations")
+    generations = changes.pop("generations", None)
+    search = dataclasses.replace(default, **changes)
+    return search if generations is None else search.with_generations(generations)
 
 
 __all__ = ["LEGACY", "MANY_STEPS", "RunStatus", "Search", "SearchRecord", "search_of"]

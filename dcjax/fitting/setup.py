@@ -20,7 +20,7 @@ from ..simulation.integrators import AutoSubsteps, Integrator, integrator_for
 from ..simulation.joint import JointProblem, Layout
 from ..simulation.problem import Problem, make_problem
 from .observation import Observation
-from .search import Search
+from .search import Search, search_of
 from .vector import base_name, resolve_parameters, search_vector, start_rows
 
 
@@ -189,19 +189,20 @@ class Plan:
 
 def plan(
     model=None,
-    search: Search | None = None,
+    search: "Search | Mapping | None" = None,
     *,
     observation: Observation | None = None,
     integrator: Integrator | AutoSubsteps | None = None,
+    default: Search | None = None,
+    legacy: Mapping | None = None,
 ) -> Plan:
-    """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others (one-line errors)."""
+    """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others
+    (one-line errors); the search resolved by `search_of` (None: `default`, else the paper's)."""
     if observation is None:
         observation = Observation()
     if not isinstance(observation, Observation):
         raise ConfigError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
-    search = Search() if search is None else search
-    if not isinstance(search, Search):
-        raise ConfigError(f"search must be a dcjax.Search(method=, runs=, budget=, seed=, memory=, polish=), got {search!r}")
+    search = search_of(search, dict(legacy or {}), Search() if default is None else default)
     resolved = get_model(model)
     m = observation.check(resolved).observed(resolved)
     if search.polish and not observation.loss.least_squares:

@@ -12,8 +12,9 @@ import numpy as np
 
 from ..analysis.checks import fit_findings
 from ..analysis.report import channel_fit
+from ..errors import ConfigError
 from ..io.files import save_figure, write_atomic
-from ..models import get_model
+from ..models import Model
 from .result import FailedFit, FitResult
 
 OUTLIER_Z = 3.5  # modified z-score (Iglewicz & Hoaglin): 0.6745 |x - median| / MAD
@@ -69,12 +70,11 @@ def outlier_flags(rows: list[dict], results: Sequence[FitResult], names: Sequenc
     return flags
 
 
-def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[dict]:
+def summary_rows(results: Sequence[FitResult | FailedFit]) -> list[dict]:
     """One row per recording: status, error, OF, parameters, fit % per channel, at-bound
     parameters, the data checks' findings (`checks`: before and after the fit) and the outlier
-    flags (`outlier_flags`)."""
+    flags (`outlier_flags`, over the model's parameters)."""
 
-    m = get_model(model) if model is not None else next((r.model for r in results if isinstance(r, FitResult)), get_model())
     rows = []
     for r in results:
         if isinstance(r, FailedFit):
@@ -89,18 +89,19 @@ def summary_rows(results: Sequence[FitResult | FailedFit], model=None) -> list[d
             )
             continue
         row = {"name": r.recording.name if r.recording else "", "file": _source(r), "status": "ok", "error": "", "of": r.of}
-        row.update(dict(r.best_values))  # the model's parameters, then any fitted y0_*, offset_*, delay_*
+        row |= dict(r.best_values)  # the model's parameters, then any fitted y0_*, offset_*, delay_*
         findings = list(r.checks)
         for rec in r.recordings[:1]:
             fits = channel_fit(r, rec)
-            row.update({f"fit_{c}": v for c, v in fits.items()})
+            row |= {f"fit_{c}": v for c, v in fits.items()}
             findings += fit_findings(r, rec, fits)
         row["at_bound"] = " ".join(r.at_bound())
         row["checks"] = " ".join(f.label for f in findings)
         rows.append(row)
     ok = [k for k, row in enumerate(rows) if row["status"] == "ok"]
     fitted = [r for r in results if isinstance(r, FitResult)]
-    for k, f in zip(ok, outlier_flags([rows[k] for k in ok], fitted, m.names)):
+    names = fitted[0].model.names if fitted else ()
+    for k, f in zip(ok, outlier_flags([rows[k] for k in ok], fitted, names)):
         rows[k]["outlier"] = " ".join(f)
     return rows
 
@@ -110,11 +111,13 @@ def _source(r: FitResult) -> str:
     return str(data[0].get("path", "")) if isinstance(data[0], dict) else ""
 
 
-def write_summary(rows: list[dict], folder: Path, model=None, plot: bool = True) -> tuple[Path, Path]:
+def write_summary(rows: list[dict], folder: Path, model: Model, plot: bool = True) -> tuple[Path, Path]:
     """`summary.csv` (every row, failed ones with their error) and `summary.png` (each
-    parameter's spread over the recordings, outliers marked)."""
+    parameter's spread over the recordings, outliers marked): `model`'s parameters and channels."""
 
-    m = get_model(model)
+    if not isinstance(model, Model):
+        raise ConfigError(f"write_summary: model must be a dcjax Model (dcjax.get_model(name) gives one), got {model!r}")
+    m = model
     folder.mkdir(parents=True, exist_ok=True)
     channels = [f"fit_{c}" for c in m.outputs]
     known = {"name", "file", "folder", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"}

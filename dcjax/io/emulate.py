@@ -54,16 +54,26 @@ class Effects:
 class DriveSettings:
     """A controlled drive and its measurement (defaults: the paper's laboratory drive, Table 7)."""
 
-    params: dict  # true Ra, La, cm, J, Tla, Tlb, Tlc (load included)
+    params: dict
+    """The true Ra, La, cm, J, Tla, Tlb, Tlc (load included)."""
     omega_final: float = 126.0
+    """The speed reference's final value (rad/s)."""
     t_speed_up: float = 0.0
+    """The reference's ramp time (s; 0: a step)."""
     i_limit: float = 11.44
+    """The supply's current limit (A)."""
     i_rated: float = 10.4
+    """The rated current (A)."""
     u_max: float = 420.0
+    """The supply's highest voltage (V)."""
     n_samples: int = 87
+    """The samples recorded."""
     dt_sample: float = 0.132
+    """The recording's sample time (s)."""
     dt_control: float = 1e-3
-    substeps: int = 10  # plant RK4 steps per control period (dt_plant = 1e-4 s)
+    """The controller's period (s)."""
+    substeps: int = 10
+    """Plant RK4 steps per control period (dt_plant = 1e-4 s)."""
     kp_w: float = 1.0  # A per rad/s
     ki_w: float = 5.0  # A per rad
     kp_i: float = 60.0  # V per A

@@ -22,7 +22,25 @@ import numpy as np
 from ..errors import ConfigError
 from .priors import Prior, prior_from_spec
 
-_UNSET = object()
+
+class _Unset:
+    """The default of `Parameter.set`'s keywords: the field is left as it is (None is a value)."""
+
+    def __repr__(self) -> str:
+        return "unset"
+
+
+_UNSET = _Unset()
+
+
+def _arithmetic(op):
+    """`op` of a `Parameter` with a number (or another parameter) as on its value, and reflected:
+    (`__add__`, `__radd__`); for a comparison `op(a, b)` the reflected one is its mirror (`<`, `>`)."""
+
+    def value(x):
+        return float(x) if isinstance(x, Parameter) else x
+
+    return (lambda self, o: op(float(self), value(o))), (lambda self, o: op(value(o), float(self)))
 
 
 @dataclasses.dataclass(eq=False)
@@ -53,17 +71,17 @@ class Parameter:
 
     def set(
         self,
-        value=_UNSET,
+        value: float | None | _Unset = _UNSET,
         *,
-        min=_UNSET,
-        max=_UNSET,
-        vary=_UNSET,
-        precision=_UNSET,
-        stderr=_UNSET,
-        local=_UNSET,
-        positive=_UNSET,
-        scale=_UNSET,
-        prior=_UNSET,
+        min: float | None | _Unset = _UNSET,
+        max: float | None | _Unset = _UNSET,
+        vary: bool | _Unset = _UNSET,
+        precision: float | None | _Unset = _UNSET,
+        stderr: float | None | _Unset = _UNSET,
+        local: bool | _Unset = _UNSET,
+        positive: bool | _Unset = _UNSET,
+        scale: str | _Unset = _UNSET,
+        prior: "Prior | str | None | _Unset" = _UNSET,
     ) -> "Parameter":
         """Change fields by keyword (lmfit's `Parameter.set`); returns the parameter."""
         for field, v in (("value", value), ("min", min), ("max", max), ("precision", precision), ("stderr", stderr)):
@@ -77,10 +95,10 @@ class Parameter:
                 if not isinstance(v, (bool, np.bool_)):
                     raise ConfigError(f"{self.name}.{field} must be True or False, got {v!r}")
                 setattr(self, field, bool(v))
-        if scale is not _UNSET:
+        if not isinstance(scale, _Unset):
             if scale not in ("linear", "log"):
                 raise ConfigError(f"{self.name}.scale must be 'linear' or 'log', got {scale!r}")
-            self.scale = scale
+            self.scale = str(scale)
             self.positive = self.positive or scale == "log"
         if prior is not _UNSET:
             try:
@@ -135,52 +153,13 @@ class Parameter:
     def __round__(self, ndigits: int | None = None):
         return round(float(self), ndigits)
 
-    def _op(self, other, op, reflected=False):
-        if isinstance(other, Parameter):
-            other = float(other)
-        return op(other, float(self)) if reflected else op(float(self), other)
-
-    def __add__(self, o):
-        return self._op(o, operator.add)
-
-    def __radd__(self, o):
-        return self._op(o, operator.add, True)
-
-    def __sub__(self, o):
-        return self._op(o, operator.sub)
-
-    def __rsub__(self, o):
-        return self._op(o, operator.sub, True)
-
-    def __mul__(self, o):
-        return self._op(o, operator.mul)
-
-    def __rmul__(self, o):
-        return self._op(o, operator.mul, True)
-
-    def __truediv__(self, o):
-        return self._op(o, operator.truediv)
-
-    def __rtruediv__(self, o):
-        return self._op(o, operator.truediv, True)
-
-    def __pow__(self, o):
-        return self._op(o, operator.pow)
-
-    def __rpow__(self, o):
-        return self._op(o, operator.pow, True)
-
-    def __lt__(self, o):
-        return self._op(o, operator.lt)
-
-    def __le__(self, o):
-        return self._op(o, operator.le)
-
-    def __gt__(self, o):
-        return self._op(o, operator.gt)
-
-    def __ge__(self, o):
-        return self._op(o, operator.ge)
+    __add__, __radd__ = _arithmetic(operator.add)
+    __sub__, __rsub__ = _arithmetic(operator.sub)
+    __mul__, __rmul__ = _arithmetic(operator.mul)
+    __truediv__, __rtruediv__ = _arithmetic(operator.truediv)
+    __pow__, __rpow__ = _arithmetic(operator.pow)
+    __lt__, __gt__ = _arithmetic(operator.lt)
+    __le__, __ge__ = _arithmetic(operator.le)
 
     @property
     def relative_stderr(self) -> float | None:

@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ..errors import ConfigError
+from ..errors import ConfigError, finite_number
 from . import Model
 from .bounds import Bounds
 
@@ -111,12 +111,7 @@ def vector_space(
     lo, hi = np.array(bounds.lower), np.array(bounds.upper)
     values = np.zeros(len(names))
     for n, v in fixed.items():
-        try:
-            v = float(v)
-        except (TypeError, ValueError):
-            raise ConfigError(f"fixed value of {n} must be a number, got {v!r}") from None
-        if not np.isfinite(v):
-            raise ConfigError(f"fixed value of {n} must be finite, got {v!r}")
+        v = finite_number(v, f"fixed value of {n}")
         k = names.index(n)
         lo[k] = hi[k] = values[k] = v
     for k in np.flatnonzero(lo == hi):

@@ -217,18 +217,27 @@ def structure_key(strategy: Strategy) -> str:
     return repr(dataclasses.replace(strategy, **{n: None for n in strategy.traced}))
 
 
+Scalar = Float[Array, ""]
+Count = Int[Array, ""]
+
+
 class RunOutput(eqx.Module):
-    """One run: best point (unit cube), its OF, FEs really spent, iterations done, the best OF
-    after each iteration (`history[k]`; NaN past the last iteration), candidates answered from
-    memory (`dups`) and memory chunks searched (`chunks`; 0 without memory)."""
+    """One run's outcome."""
 
     best_x: Float[Array, " D"]
-    best_f: Float[Array, ""]
-    fes: Int[Array, ""]
-    iterations: Int[Array, ""]
+    """The best point (unit cube)."""
+    best_f: Scalar
+    """Its OF."""
+    fes: Count
+    """The FEs really spent (simulations)."""
+    iterations: Count
+    """The iterations done."""
     history: Float[Array, " T"]
-    dups: Int[Array, ""]
-    chunks: Int[Array, ""]
+    """The best OF after each iteration (`history[k]`; NaN past the last iteration)."""
+    dups: Count
+    """Candidates answered from memory."""
+    chunks: Count
+    """Memory chunks searched (0 without memory)."""
 
 
 class RunCarry(eqx.Module):
@@ -314,21 +323,20 @@ def run_batch(
     fn: FitnessFn,
     budget: int,
     dim: int,
-    memory: "MemoryAssistance | str | None" = None,
-    precision: Float[Array, " D"] | None = None,
-    generations: int | None = None,
-    x0: Float[Array, "K D"] | None = None,
+    *,
     report: Callable | None = None,
     report_every: int = 0,
+    **options,
 ) -> RunOutput:
     """Independent runs (one per key) in one loop: the same results as `jax.vmap(run)`, but the
     loop stops when no run is active and a finished run's carry is kept by selecting only its
     small leaves. (Under `vmap`, a `while_loop` whose predicate differs between runs selects the
     whole carry every iteration — for LTMA a table of ~10^5 records per run, which made LTMA
     5-160x slower than no memory.) With `report`, `report(done)` is traced every `report_every`
-    iterations with each run's fraction done (a callback's calls may arrive out of order)."""
-    t_max = iteration_limit(strategy, budget, generations)
-    carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, memory, precision, generations, None, x0))(keys)
+    iterations with each run's fraction done (a callback's calls may arrive out of order).
+    `options`: `run_start`'s `memory`, `precision`, `generations`, `x0` (no `capacity`: the default)."""
+    t_max = iteration_limit(strategy, budget, options.get("generations"))
+    carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, **options))(keys)
     n_runs = keys.shape[0]
 
     def active(c):
@@ -385,19 +393,9 @@ class BatchProgram(eqx.Module):
         chunks: int = 20,
     ) -> RunOutput:
         """`run_batch` of the strategy with `hyper` (traced), reporting about `chunks` times."""
-        return run_batch(
-            with_hyperparameters(self.strategy, hyper),
-            keys,
-            fn,
-            self.budget,
-            dim,
-            memory,
-            precision,
-            None,
-            x0,
-            report=report,
-            report_every=max(1, -(-self.t_max // chunks)),
-        )
+        strategy = with_hyperparameters(self.strategy, hyper)
+        every = max(1, -(-self.t_max // chunks))
+        return run_batch(strategy, keys, fn, self.budget, dim, report=report, report_every=every, memory=memory, precision=precision, x0=x0)
 
 
 def batch_program(strategy: Strategy, budget: int) -> BatchProgram:
@@ -412,20 +410,10 @@ def run_output(carry: RunCarry) -> RunOutput:
     return RunOutput(state.best_x, state.best_f, state.fes, carry.it, carry.history, dups, chunks)
 
 
-def run(
-    strategy: Strategy,
-    key: PRNGKeyArray,
-    fn: FitnessFn,
-    budget: int,
-    dim: int,
-    memory: "MemoryAssistance | str | None" = None,
-    precision: Float[Array, " D"] | None = None,
-    generations: int | None = None,
-    capacity: int | None = None,
-    x0: Float[Array, "K D"] | None = None,
-) -> RunOutput:
+def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: int, **options) -> RunOutput:
     """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
-    `generations`, at most that many iterations.
+    `generations`, at most that many iterations. `options`: `run_start`'s `memory`,
+    `precision`, `generations`, `capacity`, `x0`.
 
     `memory` (`STMA()`, `LTMA(order=...)`, `IndexedLTMA()` or their names; see
     `dcjax.strategies.memory`) with `precision` in unit-cube units. Duplicates cost no FEs and are not simulated; without `generations` a run with memory
@@ -433,6 +421,5 @@ def run(
     The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
     initial population (see `Strategy.init`). The same run in pieces: `run_start`, `run_steps`
     (with `until`), `run_output`."""
-    t_max = iteration_limit(strategy, budget, generations)
-    carry = run_start(strategy, key, fn, budget, dim, memory, precision, generations, capacity, x0)
-    return run_output(run_steps(strategy, carry, fn, budget, t_max))
+    t_max = iteration_limit(strategy, budget, options.get("generations"))
+    return run_output(run_steps(strategy, run_start(strategy, key, fn, budget, dim, **options), fn, budget, t_max))

@@ -26,10 +26,10 @@ from .fitting.each import fit_each  # noqa: E402
 from .fitting.fit import fit  # noqa: E402
 from .fitting.observation import Observation  # noqa: E402
 from .fitting.parameter_spec import ParameterSpec  # noqa: E402
+from .fitting.problems import with_weights  # noqa: E402
 from .fitting.restore import load_result  # noqa: E402
 from .fitting.result import FailedFit, FitResult  # noqa: E402
 from .fitting.search import RunStatus, Search  # noqa: E402
-from .fitting.setup import with_weights  # noqa: E402
 from .io import datasets  # noqa: E402
 from .io.loading import load_recording  # noqa: E402
 from .io.recording import Recording, load_csv, save_csv, trim_switch_on  # noqa: E402

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import pulse_width
+from ..fitting.problems import with_weights
 from ..fitting.restore import load_result
 from ..fitting.result import FitResult
-from ..fitting.setup import with_weights
 from ..io import datasets
 from ..io.loading import Reading, load_recording, preprocess
 from ..io.recording import Recording

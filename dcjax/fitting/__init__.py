@@ -7,10 +7,11 @@ module (a subpackage re-exports no name that is also one of its modules)."""
 
 from .each import fit_each
 from .observation import Observation
+from .problems import with_weights
 from .restore import load_result
 from .result import FailedFit, FitResult
 from .search import Search
-from .setup import Plan, Setup, with_weights
+from .setup import Plan, Setup
 
 __all__ = [
     "FailedFit",

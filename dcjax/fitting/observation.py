@@ -25,12 +25,16 @@ import numpy as np
 from ..analysis.checks import noise_step
 from ..errors import ConfigError, finite_number
 from ..io.recording import Recording
+from ..io.units import SI_UNITS
 from ..models import Model
+from ..models.parameters import Parameter, Parameters
 from ..simulation.losses import Loss, get_loss
 from ..simulation.problem import HOLDS, held_inputs
 
 SPECS = ("measured", "derivative", "fit")
 NOISE_SHARE = 1e-4  # a channel is noisy where its noise level exceeds this share of its range
+OFFSET_SHARE = 0.10  # an offset's automatic range: +- this share of its channel's peak
+DELAY_SAMPLES = 10.0  # a delay's automatic range: 0 .. this many sample intervals
 START_SPREAD = 8.0  # a defaulted y0's range: each recording's first sample +- this many noise levels
 MAX_FITTED_STARTS = 16  # defaulted y0 values (recordings x noisy states) in one fit, at most
 
@@ -165,6 +169,38 @@ class Observation:
     def fitted_states(self) -> tuple[str, ...]:
         return tuple(s for s, v in self.initial.items() if v == "fit")
 
+    def parameter_names(self) -> tuple[str, ...]:
+        """The names of the experiment's parameters (before a joint fit's per-recording copies):
+        `y0_<state>` per fitted initial state, `offset_<channel>`, `delay_<input>`."""
+        return (
+            *(f"y0_{s}" for s in self.fitted_states()),
+            *(f"offset_{c}" for c in self.offsets),
+            *(f"delay_{u}" for u in self.delays),
+        )
+
+    def parameters(self, model: Model, recordings: list[Recording], given: Parameters) -> list[Parameter]:
+        """The experiment's parameters of a fit of `recordings`, in `parameter_names`' order: each
+        one `given` (its range completed automatically where not finite), else automatic: an offset
+        +-10 % of the channel's peak, a delay 0..10 samples (in seconds, the median sample
+        interval), a fitted initial state the measured channel's range widened by 10 % of its peak
+        (+-1.5x the largest filtered derivative for a derivative state; a noisy state fitted by
+        default: its first samples +- 8 noise sd, `start_range`)."""
+        names = self.parameter_names()
+        bad = [n for n in given if n not in names]
+        if bad:
+            hint = ", ".join(sorted(names)) or "none (no initial={STATE: 'fit'}, offsets= or delays=)"
+            raise ConfigError(f"unknown parameter(s) {', '.join(bad)} for model {model.name}; beyond its own the fit has {hint}")
+        out = []
+        for n in names:
+            p = given[n] if n in given else default_parameter(n, model, recordings, self)
+            if n in given and not (np.isfinite(p.min) and np.isfinite(p.max)):
+                auto = default_parameter(n, model, recordings, self)
+                p = dataclasses.replace(
+                    p, min=auto.min if not np.isfinite(p.min) else p.min, max=auto.max if not np.isfinite(p.max) else p.max
+                )
+            out.append(p)
+        return out
+
     def initial_values(self, model: Model, recording: Recording, fitted: bool = True) -> dict[str, float]:
         """The initial value of every state that is not fitted (`make_problem(initial=...)`);
         `fitted=False` (a recording the fit did not see): a fitted state as its default spec."""
@@ -277,3 +313,40 @@ def derivative_at_start(recording: Recording, source: str, state: str = "") -> f
     if k < 3:
         return float((y[-1] - y[0]) / t[-1]) if k == 2 and t[-1] > 0 else 0.0
     return float(np.polyfit(t / t[-1], y, 2)[1] / t[-1])
+
+
+def parameter_unit(name: str, model: Model) -> str:
+    """The unit of one of the experiment's parameters: a delay's s, else its channel's SI unit."""
+    if name.startswith("delay_"):
+        return "s"
+    channel = name.removeprefix("y0_").removeprefix("offset_")
+    return SI_UNITS.get(model.quantities.get(channel, ""), "")
+
+
+def default_parameter(name: str, model: Model, recordings: list[Recording], observation: Observation) -> Parameter:
+    """The automatic range and start value of one of the experiment's parameters (`Observation.parameters`)."""
+    unit = parameter_unit(name, model)
+    if name.startswith("offset_"):
+        c = name.removeprefix("offset_")
+        peak = max(float(np.max(np.abs(r[c]))) for r in recordings)
+        return Parameter(name, value=0.0, min=-OFFSET_SHARE * peak, max=OFFSET_SHARE * peak, unit=unit)
+    if name.startswith("delay_"):
+        h = float(np.median(np.concatenate([np.diff(r.t) for r in recordings])))
+        return Parameter(name, value=None, min=0.0, max=DELAY_SAMPLES * h, unit=unit)
+    state = name.removeprefix("y0_")
+    if observation.defaulted(state):
+        lo, hi = start_range(state, recordings)
+        return Parameter(name, value=None, min=lo, max=hi, unit=unit)
+    if all(state in r.channels for r in recordings):
+        lo = min(float(np.min(r[state])) for r in recordings)
+        hi = max(float(np.max(r[state])) for r in recordings)
+        pad = OFFSET_SHARE * max(abs(lo), abs(hi), 1e-12)
+        return Parameter(name, value=None, min=lo - pad, max=hi + pad, unit=unit)
+    src = model.derivative_of.get(state)
+    if src is not None and all(src in r.channels for r in recordings):
+        top = max(float(np.max(np.abs(np.gradient(np.asarray(r[src], float), r.t)))) for r in recordings)
+        top = max(top, abs(max(derivative_at_start(r, src, state) for r in recordings)), 1e-12)
+        return Parameter(name, value=None, min=-1.5 * top, max=1.5 * top, unit=unit)
+    raise ConfigError(
+        f"initial: {state}=fit needs a range: state {state} is not measured; give it, e.g. params[{name!r}].set(min=LO, max=HI)"
+    )

@@ -7,6 +7,8 @@ import dataclasses
 import warnings
 from collections.abc import Mapping, Sequence
 
+import numpy as np
+
 from ..analysis.estimate import auto_bounds
 from ..errors import ConfigError
 from ..io.recording import Recording
@@ -149,3 +151,49 @@ class ParameterSpec:
         if len(values) != model.n_params:
             raise ConfigError(f"precision: {model.n_params} values (one per parameter of model {model.name}), got {len(values)}")
         return dict(zip(model.names, values))
+
+
+def resolve_parameters(params, recordings: list[Recording], model: Model) -> tuple[Parameters, Parameters]:
+    """(the model's `Parameters`, the observation's given ones) from `params`: None (the
+    recordings' sidecar preset where they name one, else "auto"), a preset name, "auto"
+    (`dcjax.analysis.estimate.auto_bounds`: ranges from an equation-error first estimate, whose
+    values seed the search) or `Parameters` (copied; split by `split_parameters`)."""
+    if isinstance(params, ParameterSpec):
+        params = params.resolve(model, recordings)
+    if params is None:
+        params = sidecar_preset(recordings, model)
+    if isinstance(params, str) and params.lower() == "auto":
+        bounds, start, _ = auto_bounds(recordings, model)
+        return parameters_of(model, bounds, start), Parameters()
+    if isinstance(params, str):
+        return model.parameters(params), Parameters()
+    if not isinstance(params, Parameters):
+        raise ConfigError(
+            f"params must be None, 'auto', a preset name {sorted(model.preset_names)} or dcjax.Parameters, got {type(params).__name__}"
+        )
+    own, extras = split_parameters(params, model)  # copies
+    own.check(model.names, model.name)
+    for n, p in extras.items():
+        if p.vary and p.min > p.max:
+            raise ConfigError(f"parameter {n}: min {p.min:g} is above max {p.max:g}")
+    return own, extras
+
+
+def split_parameters(params: Parameters, model: Model) -> tuple[Parameters, Parameters]:
+    """(the model's parameters, the rest: the observation's `y0_*`, `offset_*`, `delay_*`)."""
+    own = [params[n] for n in params if n in model.names]
+    return Parameters(own if len(own) == len(model.names) else [params[n] for n in params]), Parameters(
+        [params[n] for n in params if n not in model.names]
+    )
+
+
+def parameters_of(model: Model, bounds: Bounds, values: Mapping[str, float] | None = None) -> Parameters:
+    """The model's `Parameters` (units and precisions of its default preset) with `bounds` and start `values`."""
+    base = model.parameters() if model.preset_names else None
+    prec = model.memory_precision or {}
+    lo, hi = np.asarray(bounds.lower), np.asarray(bounds.upper)
+    out = []
+    for k, n in enumerate(model.names):
+        p = base[n] if base is not None else Parameter(n, unit=model.units.get(n, ""), precision=prec.get(n))
+        out.append(dataclasses.replace(p, min=float(lo[k]), max=float(hi[k]), value=None if values is None else values.get(n)))
+    return Parameters(out)

@@ -28,10 +28,10 @@ from .fitting.each import fit_each
 from .fitting.engine import fit_setups
 from .fitting.fit import fit
 from .fitting.parameter_spec import parameters_of, resolve_parameters
+from .fitting.planning import plan
 from .fitting.problems import with_weights
 from .fitting.result import FitResult
 from .fitting.search import Search
-from .fitting.setup import plan
 from .io.recording import Recording
 from .models import Model, get_model
 from .models.bounds import Bounds, resolve_bounds

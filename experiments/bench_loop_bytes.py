@@ -27,7 +27,7 @@ import dcjax
 dcjax.use_host_devices()
 dcjax.use_compiled_loops(int(sys.argv[1]))
 import jax, jax.numpy as jnp
-from dcjax.fitting.setup import plan
+from dcjax.fitting.planning import plan
 from dcjax.simulation.joint import joint_problem, stacked_target
 repeat = int(sys.argv[2])
 

@@ -26,8 +26,8 @@ import numpy as np
 import dcjax
 import dcjax.models.servo as servo_module
 from dcjax.compiling import filter_jit
+from dcjax.fitting.planning import plan
 from dcjax.fitting.runs import QUICK_COMPILE
-from dcjax.fitting.setup import plan
 from dcjax.simulation.joint import stacked_target
 
 from .bench_servo_fleet import BOX, DT, SAMPLES, dcjax_case, logs

@@ -10,9 +10,10 @@ import pytest
 
 import dcjax
 from dcjax import cli
-from dcjax.fitting.outcome import recorded
 from dcjax.fitting.observation import Observation, derivative_at_start
-from dcjax.fitting.setup import Search, plan
+from dcjax.fitting.outcome import recorded
+from dcjax.fitting.planning import plan
+from dcjax.fitting.search import Search
 from dcjax.io.numpy_simulator import simulate_numpy
 from dcjax.simulation.losses import L1, SSE, Huber, get_loss
 

@@ -8,7 +8,7 @@ import reference as ref
 from matrix_models import EulerDC
 
 import dcjax
-from dcjax.fitting.setup import plan
+from dcjax.fitting.planning import plan
 from dcjax.simulation.adjustments import Adjustments
 from dcjax.simulation.integrate import simulate_scan
 

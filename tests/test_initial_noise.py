@@ -63,9 +63,9 @@ def test_the_default_fits_a_noisy_start_and_keeps_a_clean_ones_first_sample(sd1)
     clean = dcjax.Observation().with_defaults(dcjax.DC().outputs, [sd1])
     assert clean.initial == {} and clean.chosen == {} and clean.plain
     md1 = dcjax.datasets.load("MD1")  # emulated sensors: both channels noisy; nd auto refits with their fitted starts
-    auto = dcjax.fitting.setup.plan("dc", integrator=dcjax.AutoSubsteps()).setup([md1], "table8")
+    auto = dcjax.fitting.planning.plan("dc", integrator=dcjax.AutoSubsteps()).setup([md1], "table8")
     assert auto.space.names[-2:] == ("y0_i_a", "y0_omega")
-    space = dcjax.fitting.setup.plan("pmsm").setup(recs, None).space  # a defaulted y0's range: first samples +- 8 noise sd
+    space = dcjax.fitting.planning.plan("pmsm").setup(recs, None).space  # a defaulted y0's range: first samples +- 8 noise sd
     k = space.names.index("y0_iq[0]")
     lo, hi = float(space.bounds.lower[k]), float(space.bounds.upper[k])
     sd = max(noise_level(r["iq"]) for r in recs)

@@ -369,7 +369,7 @@ def test_nd_autos_reference_carries_every_feature(model_key, lengths_key, featur
     truth, each recording with its own parameters (local), fitted initial state, delayed and held
     inputs, equals the independent NumPy reference's data (offsets added) to 1e-8 of the peaks;
     and a fit with `AutoSubsteps` takes the features (once refused)."""
-    from dcjax.fitting.setup import plan
+    from dcjax.fitting.planning import plan
     from dcjax.simulation.diffrax_reference import reference_simulate_jit
 
     case = CASES[model_key]

@@ -7,7 +7,7 @@ import pytest
 
 import dcjax
 from dcjax import cli
-from dcjax.fitting.setup import plan
+from dcjax.fitting.planning import plan
 from dcjax.io.loading import load_recording
 from dcjax.models import model_spec
 

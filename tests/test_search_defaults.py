@@ -61,7 +61,7 @@ def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
     `runs=`, `budget=`, ... of 0.3 warn and give the bits of the `Search` they spell."""
     many = [r.replace(u_a=np.linspace(0, 1, len(r)), i_a=np.linspace(0, 2, len(r)), omega=np.linspace(0, 3, len(r)))
             for r in recordings(4, MANY_STEPS // 4)]  # fmt: skip
-    plan = dcjax.fitting.setup.plan  # what fit hands the engine, without running it
+    plan = dcjax.fitting.planning.plan  # what fit hands the engine, without running it
     seen = {}
 
     def spy(p, setups, progress=None):
@@ -81,7 +81,7 @@ def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
         assert seen["search"] == Search.many(runs=3).with_generations(4)
     finally:
         sets_module.fit_setups = original
-    assert plan is dcjax.fitting.setup.plan
+    assert plan is dcjax.fitting.planning.plan
     with pytest.raises(ValueError, match="search: unknown field.s. rums; changes to the default take method, runs"):
         dcjax.fit(many, params="table4", search={"rums": 3})
     sd1 = dcjax.datasets.load("SD1").select(slice(0, 201))

@@ -33,29 +33,27 @@ def fit_each_command(command: FitCommand) -> int:
             load=split.timed("load+checks", command.loader),
         )
         split.add("search")
-        seconds = [0.0] * n
+        seconds: list[float] = [0.0] * n
+        at_bound: list[list[str]] = [[] for _ in range(n)]
         for k, r in enumerate(results):  # a fit with no finite candidate is a failed file, not parameters
             t = time.perf_counter()
             if isinstance(r, FitResult) and r.failure:
                 results[k] = FailedFit(r.recording.name if r.recording else f"#{k}", r.failure, command.data[k], checks=list(r.checks))
-            elif isinstance(r, FitResult) and command.uncertainty:
-                results[k] = r.uncertainty()
+            elif isinstance(r, FitResult):
+                at_bound[k] = r.at_bound()
+                results[k] = r.uncertainty() if command.uncertainty else r
             seconds[k] = time.perf_counter() - t + (r.timing.get("run_s", 0.0) if isinstance(r, FitResult) else 0.0)
         fitted = [r for r in results if isinstance(r, FitResult)]
-        at_bound = {id(r): r.at_bound() for r in fitted}
         out = announce(folder)
         remove_earlier(folder.replaced)
         folders = dict(zip(map(id, fitted), file_names([r.recording.name if r.recording else "" for r in fitted])))
         bar = FileBar(n, command.progress)
         for k, result in enumerate(results):
             t = time.perf_counter()
-            if isinstance(result, FailedFit):
-                print(f"{result.name}: failed: {as_flags(result.error)}")
-                name = result.name
-            else:
+            if isinstance(result, FitResult):
                 where = out / folders[id(result)]
                 save_fit(result, where, plot=plots == "each")
-                at, warn = at_bound[id(result)], [f.label for f in result.checks]
+                at, warn = at_bound[k], [f.label for f in result.checks]
                 name = result.recording.name if result.recording else f"#{k}"
                 print(
                     f"{name}: OF {result.of:.4e}"
@@ -63,6 +61,9 @@ def fit_each_command(command: FitCommand) -> int:
                     + (f"; checks: {' '.join(warn)}" if warn else "")
                     + f"; wrote {where}"
                 )
+            else:
+                print(f"{result.name}: failed: {as_flags(result.error)}")
+                name = result.name
             bar.done(k + 1, name, result, seconds[k] + time.perf_counter() - t)
         bar.close()
         rows = summary_rows(results)

@@ -1,6 +1,7 @@
 """How far a command is and where its time went: `FileBar` (a line, or a bar on a terminal, per
 finished file) and `WallSplit` (the wall time split into its phases and compilation)."""
 
+import dataclasses
 import sys
 import time
 
@@ -68,17 +69,19 @@ class WallSplit:
         return f"{n} files: " + ", ".join(f"{k} {v:.1f} s" for k, v in self.seconds.items())
 
 
+@dataclasses.dataclass
 class FileBar:
-    """One report per finished file of `n`: a tqdm bar on a terminal (`tty`), else a line on
-    stderr, `[k/n] name: ok, OF ..., S s, L left` (S: the file's share of its batch's search and
-    its writing)."""
+    """One report per finished file of `n`: a tqdm bar on a terminal (`tty`; made at the first
+    file), else a line on stderr, `[k/n] name: ok, OF ..., S s, L left` (S: the file's share of
+    its batch's search and its writing)."""
 
-    def __init__(self, n: int, tty: bool):
-        self.n = n
-        self.bar = tqdm(total=n, unit="file", desc="files", leave=False, dynamic_ncols=True) if tty else None
+    n: int
+    tty: bool
+    bar: tqdm | None = None
 
     def done(self, k: int, name: str, result: FitResult | FailedFit, seconds: float) -> None:
-        if self.bar is not None:
+        if self.tty:
+            self.bar = self.bar or tqdm(total=self.n, unit="file", desc="files", leave=False, dynamic_ncols=True)
             self.bar.update(1)
             return
         status = "failed" if isinstance(result, FailedFit) else f"ok, OF {result.of:.4e}"

@@ -12,10 +12,10 @@ from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
 from .observation import Observation
 from .parameter_spec import ParameterSpec
+from .planning import plan
 from .result import FailedFit, FitResult
 from .search import Search
 from .sets import RecordingSet, failed, fit_sets
-from .setup import plan
 
 
 def fit_each(

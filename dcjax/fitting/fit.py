@@ -19,10 +19,10 @@ from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
 from .observation import Observation
 from .parameter_spec import ParameterSpec
+from .planning import plan
 from .result import FitResult
 from .search import Search
 from .sets import RecordingSet, fit_sets
-from .setup import plan
 
 
 def recordings_of(data) -> list[Recording]:

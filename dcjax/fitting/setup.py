@@ -4,25 +4,24 @@ a fit or a batch) and a `Setup` per fit (its recordings, the search vector's `Pa
 problems, the search space, start rows, weights and data-check findings)."""
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from ..errors import ConfigError
 from ..io.recording import Recording
-from ..models import Model, get_model
-from ..models.base import DiscreteModel
+from ..models import Model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameters
 from ..models.precision import physical_precision
 from ..models.space import Space, vector_space
-from ..simulation.integrators import AutoSubsteps, Integrator, integrator_for
+from ..simulation.integrators import AutoSubsteps, Integrator
 from ..simulation.joint import JointProblem, Layout
 from ..simulation.problem import Problem
 from .observation import Observation
 from .parameter_spec import resolve_parameters
 from .problems import channel_weights, joint_weights, problems_of
-from .search import Search, search_of
+from .search import Search
 from .vector import base_name, search_vector, start_rows
 
 
@@ -115,7 +114,7 @@ class Plan:
         problems = problems_of(recordings, model, integrator, weights, observation)
         x0 = starts if starts is not None else (vec.start or None)
         jw = joint_weights(recordings, pooled=observation.loss.normalize == "none")
-        trivial = layout == Layout.plain(model.names, len(recordings))
+        trivial = layout.names == tuple(model.names) and layout.shared and not layout.adjusted  # Layout.plain: nothing to lay out
         return Setup(
             recordings,
             model,
@@ -130,36 +129,3 @@ class Plan:
             None if trivial else layout,
             tuple(findings),
         )
-
-
-def plan(
-    model=None,
-    search: "Search | Mapping | None" = None,
-    *,
-    observation: Observation | None = None,
-    integrator: Integrator | AutoSubsteps | None = None,
-    default: Search | None = None,
-    legacy: Mapping | None = None,
-) -> Plan:
-    """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others
-    (one-line errors); the search resolved by `search_of` (None: `default`, else the paper's)."""
-    if observation is None:
-        observation = Observation()
-    if not isinstance(observation, Observation):
-        raise ConfigError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
-    search = search_of(search, dict(legacy or {}), Search() if default is None else default)
-    resolved = get_model(model)
-    m = observation.check(resolved).observed(resolved)
-    if search.polish and not observation.loss.least_squares:
-        raise ConfigError(
-            f"polish: Levenberg-Marquardt needs a least-squares loss (sse or huber); the {observation.loss.spec} loss has none"
-        )
-    if isinstance(m, DiscreteModel):
-        if isinstance(integrator, AutoSubsteps):
-            raise ConfigError(f"model {m.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
-        return Plan(m, integrator_for(m, integrator), search, observation)
-    if integrator is not None and not isinstance(integrator, (Integrator, AutoSubsteps)):
-        raise ConfigError(
-            f"integrator must be dcjax.Euler(...), dcjax.RK4(...), a dcjax.Integrator of your own or dcjax.AutoSubsteps(...), got {integrator!r}"
-        )
-    return Plan(m, integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator, search, observation)

@@ -42,6 +42,7 @@ def use_host_devices(n: int | None = None) -> int:
 
 
 LOOP_OPTION = "xla_cpu_small_while_loop_byte_threshold"
+EXTRA_OPTIONS = "xla_backend_extra_options"  # the XLA flag that carries backend options
 
 
 def _backends_started() -> bool:
@@ -71,12 +72,12 @@ def use_compiled_loops(max_bytes: int = 1 << 24) -> bool:
     if not isinstance(max_bytes, int) or isinstance(max_bytes, bool) or max_bytes < 1:
         raise ConfigError(f"max_bytes must be a positive integer, got {max_bytes!r}")
     flags = os.environ.get("XLA_FLAGS", "")
-    if "xla_backend_extra_options" in flags:
+    if EXTRA_OPTIONS in flags:
         return LOOP_OPTION in flags
     if _backends_started():
         warnings.warn("JAX already started; call dcjax.use_compiled_loops() before any JAX computation", stacklevel=2)
         return False
-    os.environ["XLA_FLAGS"] = f"{flags} --xla_backend_extra_options={LOOP_OPTION}={max_bytes}".strip()
+    os.environ["XLA_FLAGS"] = f"{flags} --{EXTRA_OPTIONS}={LOOP_OPTION}={max_bytes}".strip()
     return True
 
 

@@ -42,6 +42,7 @@ from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Diffrax, Eul
 from .simulation.losses import L1, LOSSES, SSE, Huber, Loss  # noqa: E402
 from .simulation.objectives import Problem, make_problem, objective, residuals, simulate  # noqa: E402
 from .strategies.memory import LTMA, MEMORIES, STMA, IndexedLTMA, MemoryAssistance  # noqa: E402
+from .strategies.stopping import Converged  # noqa: E402
 from .version import __version__  # noqa: E402
 
 __all__ = [
@@ -71,6 +72,7 @@ __all__ = [
     "fit",
     "fit_each",
     "Search",
+    "Converged",
     "RunStatus",
     "FailedFit",
     "with_weights",

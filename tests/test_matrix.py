@@ -435,3 +435,28 @@ def test_design_designs_every_recorded_input(model_key):
     t = d.recording.t
     own = evaluate_input(d, case.model, {c: np.where(t < 0.012, levels[0], levels[1]) for c, levels in zip(recorded, case.levels)})
     assert all(np.isfinite(v) for v in own.stderr.values()), own.stderr
+
+
+@pytest.mark.parametrize(
+    "model_key,lengths_key,feature",
+    [pytest.param(*c, id="-".join(c), marks=() if c == ("dc", "close", "all") else pytest.mark.slow)
+     for c in [("dc", "close", "all"), ("discrete", "close", "all"), ("pmsm", "one", "initial-derivative")]],
+)  # fmt: skip
+def test_the_stopping_rule_composes_with_every_feature(model_key, lengths_key, feature):
+    """`Search.stop` with every feature at once (local, offset, delay, fitted initial state; padded
+    lengths; a discrete map; the derivative start): a rule loose enough to end every run after its
+    second iteration ends it there, the polish still recovers the truth, and each run says so;
+    `fit_each` of one recording likewise."""
+    case = CASES[model_key]
+    recs, truth = data(model_key, lengths_key, feature)
+    model = case.encoder if "initial-derivative" in parts(feature) else case.model
+    params = start_parameters(model, truth, feature, case, len(recs))
+    integrator = None if case.discrete else dcjax.RK4(substeps=4)
+    search = dcjax.Search(runs=2, budget=7000, polish=True, stop=dcjax.Converged(rtol=1.0, atol=1.0, patience=1))
+    res = dcjax.fit(list(recs), model, params, search, observation=observation(case, feature), integrator=integrator)
+    assert list(res.iterations) == [2, 2] and res.run_status == (dcjax.RunStatus.CONVERGED,) * 2
+    err = errors(res, truth)
+    assert max(err.values()) <= TOL, {k: f"{v:.1e}" for k, v in err.items()}
+    if len(recs) == 1:  # one recording: fit_each too
+        (each,) = dcjax.fit_each(list(recs), model, params, search, observation=observation(case, feature), integrator=integrator)
+        assert isinstance(each, dcjax.FitResult) and each.run_status == res.run_status

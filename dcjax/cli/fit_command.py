@@ -16,6 +16,7 @@ from ..simulation.integrators import INTEGRATORS, AutoSubsteps, Integrator
 from ..simulation.losses import get_loss
 from ..strategies import METHODS
 from ..strategies.memory import MEMORIES
+from ..strategies.stopping import Converged
 from .common import Loader, add_data_options, add_output_options
 from .output import OutputFolder, drop_sidecars, each_products, fit_products
 from .values import mapping, named_numbers, named_numbers_or_numbers, named_ranges, names, numbers, substeps
@@ -91,6 +92,17 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
         help="duplicate precisions, NAME=VALUE pairs or one value per parameter (default Table 29)",
     )
     f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
+    f.add_argument(
+        "--stop",
+        type=named_numbers,
+        nargs="?",
+        const={},
+        default=None,
+        metavar="rtol=R,atol=A,patience=G",
+        help="end a run once it has converged (its best OF improved by at most R|best| + A over G iterations, and for the DEs, "
+        "TLBO and CMA-ES its population's OFs within that of each other); the budget stays the upper bound "
+        f"(default R={Converged().rtol:g}, A={Converged().atol:g}, G={Converged().patience})",
+    )
     f.add_argument(
         "--plots",
         default=None,
@@ -208,6 +220,12 @@ class FitCommand:
         }
         if args.memory is not None:
             search["memory"] = MEMORIES[args.memory]
+        if args.stop is not None:
+            unknown = sorted(set(args.stop) - {"rtol", "atol", "patience"})
+            if unknown:
+                raise ConfigError(f"--stop takes rtol, atol and patience, got {', '.join(unknown)}")
+            given = {k: (int(v) if k == "patience" and float(v).is_integer() else v) for k, v in args.stop.items()}
+            search["stop"] = Converged(**given)
         return cls(
             tuple(drop_sidecars(args.data)),
             model,

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import fit_findings
+from ..analysis.report import stop_summary
 from ..fitting.result import FitResult
 from ..fitting.vector import base_name, unit_of
 from ..io.recording import Recording
@@ -99,6 +100,8 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
     print(f"OF best {st['best']:.4e}  worst {st['worst']:.4e}  mean {st['mean']:.4e}  std {st['std']:.4e}")
     if truth:  # simulated, noise-free data: an exact fit means something
         print(f"runs with OF <= 1e-15: {int(np.sum(result.run_of <= 1e-15))}/{s.runs}")
+    if s.stop is not None:
+        print(f"converged: {stop_summary(result)}")
     if result.duplicates is not None:
         d = result.duplicates
         print(

@@ -55,6 +55,7 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         timing=timing,
         polish=polish_info,
         dups=np.asarray(out.dups) if memory else None,
+        converged=np.asarray(out.converged) if search.stop is not None else None,
         memory_chunks=np.asarray(out.chunks) if memory else None,
         recordings=list(setup.recordings),
         model=setup.model,

@@ -17,10 +17,11 @@ from ..models import MODELS, Model, get_model
 from ..models.bounds import Bounds
 from ..models.priors import prior_from_spec
 from ..simulation.integrators import INTEGRATORS, Integrator, get_integrator
+from ..strategies.stopping import Converged
 from .observation import Observation
 from .result import FitResult
 from .result_file import MAX_RUNS, MAX_SUBSTEPS, Fields, ResultFileError, builtin_name, read_record, within_bounds
-from .search import SearchRecord
+from .search import RunStatus, SearchRecord
 from .vector import layout_of
 
 
@@ -83,6 +84,7 @@ def load_result(
         run_params=np.array([[p[n] for n in names] for p in (r.named_numbers("params", names, null=np.nan) for r in run)], float),
         fes=np.array([r.integer("fes", default=0) for r in run]),
         iterations=np.array([r.integer("iterations", default=0) for r in run]),
+        converged=np.array([r.data.get("status") == RunStatus.CONVERGED.value for r in run]),
         history=np.full((len(runs), 1), np.nan),  # the file keeps each run's last best only (history_best)
         timing=timing,
         polish=polish,
@@ -123,6 +125,17 @@ def _checked_rest(top: Fields):
     return checks, None if polish is None else polish.data, timing
 
 
+def _stop(s: Fields) -> dict | None:
+    """The stopping rule a result's search ran with (`Converged.spec`), each value checked."""
+    stop = s.sub("stop", required=False)
+    if stop is None:
+        return None
+    try:
+        return Converged(stop.number("rtol"), stop.number("atol"), stop.integer("patience", 1)).spec()
+    except ConfigError as e:
+        raise ResultFileError(f"{s.path}: settings.stop: {e}") from None
+
+
 def _recorded(s: Fields, m: Model, names, n_data: int) -> dict:
     """The typed fields of a `FitResult` that its settings record: the search, the channel and
     joint weights, the data's sources, the start values, priors, local and log-scale names, the
@@ -156,6 +169,7 @@ def _recorded(s: Fields, m: Model, names, n_data: int) -> dict:
             memory,
             bool(s.data.get("polish", False)),
             strategy if isinstance(strategy, str) else "",
+            _stop(s),
         ),
         weights=optional("weights", len(m.outputs)) or (),
         joint_weights=optional("joint_weights", n_data),

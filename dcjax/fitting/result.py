@@ -86,6 +86,7 @@ class FitResult:
     timing: dict = dataclasses.field(default_factory=dict)
     polish: dict | None = None
     dups: np.ndarray | None = None  # (R,) candidates answered from memory
+    converged: np.ndarray | None = None  # (R,) whether each run ended by the search's stopping rule (`Search.stop`)
     memory_chunks: np.ndarray | None = None  # (R,) memory chunks searched
     recordings: list[Recording] = dataclasses.field(default_factory=list, repr=False)
     model: Model = dataclasses.field(default_factory=get_model, repr=False)
@@ -259,8 +260,8 @@ class FitResult:
     # -- lmfit's vocabulary -------------------------------------------------------------------
     @property
     def run_status(self) -> tuple[RunStatus, ...]:
-        """How each run ended: its objective not finite, its polish at its step limit, the
-        strategy's iteration limit reached, or its budget spent."""
+        """How each run ended: its objective not finite, its polish at its step limit, converged
+        by the search's stopping rule, the strategy's iteration limit reached, or its budget spent."""
         conv = (self.polish or {}).get("converged")
         gens = self.search.generations
 
@@ -269,6 +270,8 @@ class FitResult:
                 return RunStatus.NON_FINITE
             if conv is not None and not conv[r]:
                 return RunStatus.POLISH_STEP_LIMIT
+            if self.converged is not None and self.converged[r]:
+                return RunStatus.CONVERGED
             return RunStatus.GENERATIONS if gens is not None and self.iterations[r] >= gens else RunStatus.BUDGET
 
         return tuple(status(r) for r in range(len(self.run_of)))

@@ -197,6 +197,8 @@ def settings_record(result) -> dict:
             "ndata": result.ndata,
         }
     )
+    if result.search.stop is not None:
+        out["stop"] = dict(result.search.stop)
     if result.nd_auto is not None:
         out["nd_auto"] = result.nd_auto
     if result.limit_setting is not None:

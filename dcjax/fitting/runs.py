@@ -112,7 +112,7 @@ def leaf_signature(args) -> tuple:
 
 def compile_key(search: Search, program: BatchProgram) -> tuple:
     """What of a search an executable is compiled for (the traced hyperparameters are arguments)."""
-    return (program.key, search.budget, search.memory, search.generations)
+    return (program.key, search.budget, search.memory, search.generations, search.stop)
 
 
 def group_key(setup: Setup) -> tuple:
@@ -364,7 +364,7 @@ def run_setups(setups: list[Setup], search: Search, progress=None) -> list[tuple
         groups.setdefault(group_key(s), []).append(k)
     out: list = [None] * len(setups)
     show = progress is not None and progress is not False
-    program = batch_program(search.strategy, search.budget)
+    program = batch_program(search.strategy, search.budget, search.stop)
     total = search.runs * len(setups) * program.t_max
     overall = (progress if callable(progress) else _tqdm_progress(total)) if show else None
     done = 0

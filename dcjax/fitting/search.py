@@ -15,6 +15,7 @@ from ..deprecation import warn_deprecated
 from ..errors import ConfigError
 from ..strategies import METHODS, Strategy, make_strategy
 from ..strategies.memory import MemoryAssistance
+from ..strategies.stopping import Converged
 
 MANY_STEPS = 50_000  # integration steps of one evaluation from which a fit is "of many recordings" (100 of 500 samples)
 LEGACY = ("method", "runs", "budget", "seed", "memory", "polish")  # fit's keywords of 0.2/0.3, now Search's fields
@@ -31,7 +32,9 @@ class Search:
     evosax algorithm's name, or a `Strategy` carrying its own settings) of at most `budget` FEs
     each (and at most the strategy's `generations` iterations), run r keyed by
     `fold_in(PRNGKey(seed), r)`, with an optional `memory` (`dcjax.STMA()`, `LTMA(...)`,
-    `IndexedLTMA()`, paper Section 4.4) and a Levenberg–Marquardt `polish` of every run."""
+    `IndexedLTMA()`, paper Section 4.4), a Levenberg–Marquardt `polish` of every run, and a
+    stopping rule `stop` (`dcjax.Converged(rtol=, atol=, patience=)`: a run that has converged
+    ends before its budget; None: every run spends its budget, as the paper's)."""
 
     method: "str | Strategy" = "de-rand-1-exp"
     runs: int = 50
@@ -39,6 +42,7 @@ class Search:
     seed: int = 0
     memory: MemoryAssistance | None = None
     polish: bool = False
+    stop: Converged | None = None
     strategy: Strategy = dataclasses.field(init=False, repr=False, compare=False)  # `method` resolved
 
     def __post_init__(self):
@@ -60,6 +64,8 @@ class Search:
             )
         if not isinstance(self.polish, (bool, np.bool_)):
             raise ConfigError(f"Search.polish must be True or False, got {self.polish!r}")
+        if self.stop is not None and not isinstance(self.stop, Converged):
+            raise ConfigError(f"Search.stop must be None or dcjax.Converged(rtol=, atol=, patience=), got {self.stop!r}")
 
     @classmethod
     def paper(cls, **changes) -> "Search":
@@ -98,6 +104,7 @@ class Search:
 class RunStatus(enum.Enum):
     """How a run ended (a result's `run_status`, result.json's `runs[].status`)."""
 
+    CONVERGED = "converged"  # its stopping rule (`Search.stop`) ended it before its budget
     BUDGET = "budget"  # its FEs were spent
     GENERATIONS = "generations"  # it reached the strategy's iteration limit first
     NON_FINITE = "non-finite"  # no candidate's objective was finite
@@ -109,7 +116,7 @@ class SearchRecord:
     """The search a result ran, as its file records it (a result loaded from a file need not
     rebuild the strategy: a user's own may not be importable): the method's name, runs, budget,
     seed, the population size, the iteration limit, the memory's kind, whether every run was
-    polished, and the strategy object's repr."""
+    polished, the strategy object's repr and the stopping rule."""
 
     method: str
     runs: int
@@ -120,6 +127,7 @@ class SearchRecord:
     memory: str | None = None
     polish: bool = False
     strategy: str = ""
+    stop: dict | None = None  # the stopping rule (`Converged.spec`)
 
     @classmethod
     def of(cls, search: Search) -> "SearchRecord":
@@ -133,6 +141,7 @@ class SearchRecord:
             None if search.memory is None else search.memory.kind,
             bool(search.polish),
             repr(search.strategy),
+            None if search.stop is None else search.stop.spec(),
         )
 
 
@@ -166,9 +175,9 @@ def search_of(search: "Search | Mapping | None", legacy: dict, default: "Search"
 
 def _changed(default: Search, changes: dict) -> Search:
     """`default` with `changes` (fields of `Search`, and `generations`)."""
-    bad = sorted(str(k) for k in changes if k not in (*LEGACY, "generations"))
+    bad = sorted(str(k) for k in changes if k not in (*LEGACY, "stop", "generations"))
     if bad:
-        raise ConfigError(f"search: unknown field(s) {', '.join(bad)}; changes to the default take {', '.join(LEGACY)}, generations")
+        raise ConfigError(f"search: unknown field(s) {', '.join(bad)}; changes to the default take {', '.join(LEGACY)}, stop, generations")
     generations = changes.pop("generations", None)
     search = dataclasses.replace(default, **changes)
     return search if generations is None else search.with_generations(generations)

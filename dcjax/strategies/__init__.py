@@ -6,6 +6,7 @@ from .abc import ABC
 from .base import RunOutput, State, Strategy, run
 from .de import DEBest1Bin, DERand1Exp
 from .ga import GA
+from .stopping import Converged
 from .tlbo import TLBO
 
 METHODS = {
@@ -71,6 +72,7 @@ def __getattr__(name):
 
 __all__ = [
     "ABC",
+    "Converged",
     "GA",
     "TLBO",
     "DERand1Exp",

@@ -11,6 +11,8 @@ A colony of NP bees tends SN = NP / 2 food sources.
   exactly at the budget.
 """
 
+from typing import ClassVar
+
 import jax
 import jax.numpy as jnp
 
@@ -18,6 +20,7 @@ from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, ind
 
 
 class ABC(Strategy):
+    population_converges: ClassVar[bool] = False  # its mutation (scouts) keeps it diverse: `Converged` asks the best's stagnation only
     limit: int = 100
     bounds_rule: str = "clip"
     init_rule: str = "uniform"

@@ -15,6 +15,7 @@ from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 from ..errors import ConfigError
 from .compact import compacted
 from .memory import HashRecords, MemoryAssistance, Records, get_memory
+from .stopping import Converged
 
 FitnessFn = Callable[[Float[Array, "P D"]], Float[Array, " P"]]
 
@@ -183,6 +184,7 @@ class Strategy(eqx.Module):
     pop_size: int = eqx.field(static=True, default=70)
     generations: int | None = eqx.field(static=True, default=None)  # at most this many iterations a run (None: as the budget buys)
     traced: ClassVar[tuple[str, ...]] = ()  # float hyperparameters passed to the executable as values
+    population_converges: ClassVar[bool] = True  # its population contracts on the optimum (`Converged`)
 
     @property
     def cost(self) -> int:
@@ -238,6 +240,8 @@ class RunOutput(eqx.Module):
     """Candidates answered from memory."""
     chunks: Count
     """Memory chunks searched (0 without memory)."""
+    converged: Bool[Array, ""]
+    """Whether the run ended by its stopping rule (`Converged`) before its budget."""
 
 
 class RunCarry(eqx.Module):
@@ -286,18 +290,30 @@ def run_start(
     return RunCarry(state, jnp.asarray(0), jnp.full((max(1, t_max),), jnp.nan), k_run)
 
 
-def run_active(strategy: Strategy, carry: RunCarry, budget: int, t_max: int) -> Bool[Array, ""]:
-    """Whether the run goes on: budget for another step is left and fewer than `t_max` iterations."""
-    return (carry.state.fes + strategy.cost <= budget) & (carry.it < t_max)
+def run_active(strategy: Strategy, carry: RunCarry, budget: int, t_max: int, stop: Converged | None = None) -> Bool[Array, ""]:
+    """Whether the run goes on: budget for another step is left, fewer than `t_max` iterations
+    are done and, with `stop`, the run has not converged."""
+    go = (carry.state.fes + strategy.cost <= budget) & (carry.it < t_max)
+    return go if stop is None else go & ~converged(strategy, carry, stop)
 
 
-def run_steps(strategy: Strategy, carry: RunCarry, fn: FitnessFn, budget: int, t_max: int, until=None) -> RunCarry:
-    """Iterate while the run is active and, with `until`, while fewer than `until` iterations are
-    done (so a run can be advanced in chunks with one executable; the result does not depend on
-    the chunking: iteration `it` always uses `fold_in(key, it)`)."""
+def converged(strategy: Strategy, carry: RunCarry, stop: Converged | None) -> Bool[Array, ""]:
+    """Whether the run has converged by `stop` (False without one)."""
+    if stop is None:
+        return jnp.asarray(False)
+    return stop.reached(carry.it, carry.history, carry.state.fit, strategy.population_converges)
+
+
+def run_steps(
+    strategy: Strategy, carry: RunCarry, fn: FitnessFn, budget: int, t_max: int, until=None, stop: Converged | None = None
+) -> RunCarry:
+    """Iterate while the run is active (`run_active`, with the stopping rule `stop`) and, with
+    `until`, while fewer than `until` iterations are done (so a run can be advanced in chunks
+    with one executable; the result does not depend on the chunking: iteration `it` always uses
+    `fold_in(key, it)`)."""
 
     def cond(c: RunCarry):
-        go = run_active(strategy, c, budget, t_max)
+        go = run_active(strategy, c, budget, t_max, stop)
         return go if until is None else go & (c.it < until)
 
     return jax.lax.while_loop(cond, lambda c: run_iteration(strategy, c, fn, budget), carry)
@@ -326,6 +342,7 @@ def run_batch(
     *,
     report: Callable | None = None,
     report_every: int = 0,
+    stop: Converged | None = None,
     **options,
 ) -> RunOutput:
     """Independent runs (one per key) in one loop: the same results as `jax.vmap(run)`, but the
@@ -334,13 +351,14 @@ def run_batch(
     whole carry every iteration — for LTMA a table of ~10^5 records per run, which made LTMA
     5-160x slower than no memory.) With `report`, `report(done)` is traced every `report_every`
     iterations with each run's fraction done (a callback's calls may arrive out of order).
+    `stop`: the stopping rule (`Converged`; a run that meets it ends, as one at its budget).
     `options`: `run_start`'s `memory`, `precision`, `generations`, `x0` (no `capacity`: the default)."""
     t_max = iteration_limit(strategy, budget, options.get("generations"))
     carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, **options))(keys)
     n_runs = keys.shape[0]
 
     def active(c):
-        return jax.vmap(lambda c: run_active(strategy, c, budget, t_max))(c)
+        return jax.vmap(lambda c: run_active(strategy, c, budget, t_max, stop))(c)
 
     def masked(go, new, old):
         def pick(a, b):
@@ -365,7 +383,7 @@ def run_batch(
         return i + 1, c
 
     _, carry = jax.lax.while_loop(lambda loop: jnp.any(active(loop[1])), body, (jnp.asarray(0), carry))
-    return jax.vmap(run_output)(carry)
+    return jax.vmap(lambda c: run_output(c, converged(strategy, c, stop)))(carry)
 
 
 class BatchProgram(eqx.Module):
@@ -379,6 +397,7 @@ class BatchProgram(eqx.Module):
     t_max: int = eqx.field(static=True)
     key: str = eqx.field(static=True)
     hyper: dict
+    stop: Converged | None = eqx.field(static=True, default=None)
 
     def run(
         self,
@@ -395,25 +414,38 @@ class BatchProgram(eqx.Module):
         """`run_batch` of the strategy with `hyper` (traced), reporting about `chunks` times."""
         strategy = with_hyperparameters(self.strategy, hyper)
         every = max(1, -(-self.t_max // chunks))
-        return run_batch(strategy, keys, fn, self.budget, dim, report=report, report_every=every, memory=memory, precision=precision, x0=x0)
+        return run_batch(
+            strategy,
+            keys,
+            fn,
+            self.budget,
+            dim,
+            report=report,
+            report_every=every,
+            stop=self.stop,
+            memory=memory,
+            precision=precision,
+            x0=x0,
+        )
 
 
-def batch_program(strategy: Strategy, budget: int) -> BatchProgram:
-    """The `BatchProgram` of `strategy` at `budget` FEs a run."""
-    return BatchProgram(strategy, budget, iteration_limit(strategy, budget), structure_key(strategy), hyperparameters(strategy))
+def batch_program(strategy: Strategy, budget: int, stop: Converged | None = None) -> BatchProgram:
+    """The `BatchProgram` of `strategy` at `budget` FEs a run (ending a converged run by `stop`)."""
+    return BatchProgram(strategy, budget, iteration_limit(strategy, budget), structure_key(strategy), hyperparameters(strategy), stop)
 
 
-def run_output(carry: RunCarry) -> RunOutput:
+def run_output(carry: RunCarry, stopped: Bool[Array, ""] | bool = False) -> RunOutput:
+    """A finished run's `RunOutput`; `stopped`: it ended by its stopping rule."""
     state = carry.state
     chunks = jnp.asarray(0) if state.memory is None else state.memory.chunks
     dups = jnp.asarray(0) if state.dups is None else state.dups
-    return RunOutput(state.best_x, state.best_f, state.fes, carry.it, carry.history, dups, chunks)
+    return RunOutput(state.best_x, state.best_f, state.fes, carry.it, carry.history, dups, chunks, jnp.asarray(stopped))
 
 
 def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: int, **options) -> RunOutput:
     """The whole run as one `lax.while_loop`: init, then steps while budget is left and, with
     `generations`, at most that many iterations. `options`: `run_start`'s `memory`,
-    `precision`, `generations`, `capacity`, `x0`.
+    `precision`, `generations`, `capacity`, `x0`, and `stop` (`Converged`: a converged run ends).
 
     `memory` (`STMA()`, `LTMA(order=...)`, `IndexedLTMA()` or their names; see
     `dcjax.strategies.memory`) with `precision` in unit-cube units. Duplicates cost no FEs and are not simulated; without `generations` a run with memory
@@ -421,5 +453,7 @@ def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: 
     The LTMA history holds `capacity` records (default: budget + one population). `x0` seeds the
     initial population (see `Strategy.init`). The same run in pieces: `run_start`, `run_steps`
     (with `until`), `run_output`."""
+    stop = options.pop("stop", None)
     t_max = iteration_limit(strategy, budget, options.get("generations"))
-    return run_output(run_steps(strategy, run_start(strategy, key, fn, budget, dim, **options), fn, budget, t_max))
+    carry = run_steps(strategy, run_start(strategy, key, fn, budget, dim, **options), fn, budget, t_max, stop=stop)
+    return run_output(carry, converged(strategy, carry, stop))

@@ -12,6 +12,8 @@ One generation:
 5. every member is evaluated: NP FEs per generation (the paper: 2000 iterations = 140,000 FEs).
 """
 
+from typing import ClassVar
+
 import jax
 import jax.numpy as jnp
 
@@ -19,6 +21,7 @@ from .base import State, Strategy, evaluate, initial_state
 
 
 class GA(Strategy):
+    population_converges: ClassVar[bool] = False  # its mutation (scouts) keeps it diverse: `Converged` asks the best's stagnation only
     mutation_rate: float = 0.2
     keep: float = 0.5
     init_rule: str = "uniform"

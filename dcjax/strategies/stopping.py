@@ -1,0 +1,45 @@
+"""When a run stops before its budget: `Converged`, the rule of scipy's `differential_evolution`
+(`tol`, `atol`), pygmo (`ftol`) and CMA-ES (`tolfun`, stagnation), evaluated inside the compiled
+loop after every iteration. The budget (and a strategy's `generations`) stays the upper bound."""
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float, Int
+
+from ..errors import ConfigError
+
+
+class Converged(eqx.Module):
+    """A run has converged when its best OF improved by at most `rtol` |best| + `atol` over the
+    last `patience` iterations and, for a strategy whose population contracts on the optimum
+    (`Strategy.population_converges`: the DEs, TLBO, CMA-ES), half its population's OFs lie
+    within the same tolerance of the best (the median: a member stuck far off, as a TLBO learner
+    that no longer improves, does not keep the run going); GA's mutation and ABC's scouts keep
+    their populations diverse, so for them the stagnation of the best alone decides."""
+
+    rtol: float = eqx.field(static=True, default=1e-10)
+    atol: float = eqx.field(static=True, default=0.0)
+    patience: int = eqx.field(static=True, default=100)
+
+    def __check_init__(self):
+        for name in ("rtol", "atol"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or isinstance(v, bool) or not v >= 0 or v == float("inf"):
+                raise ConfigError(f"Converged.{name} must be a finite number >= 0, got {v!r}")
+        if not isinstance(self.patience, int) or isinstance(self.patience, bool) or self.patience < 1:
+            raise ConfigError(f"Converged.patience must be a positive integer (iterations), got {self.patience!r}")
+
+    def reached(self, it: Int[Array, ""], history: Float[Array, " T"], fit: Float[Array, " P"], spread: bool) -> Bool[Array, ""]:
+        """Whether a run `it` iterations in (its best OF after each in `history`, its population's
+        OFs `fit`) has converged; `spread`: the population's OFs must agree too."""
+        best = history[jnp.maximum(it - 1, 0)]
+        past = history[jnp.maximum(it - 1 - self.patience, 0)]
+        tol = self.rtol * jnp.abs(best) + self.atol
+        done = (it > self.patience) & (past - best <= tol)  # NaN/inf: never
+        if spread:  # half the population within the tolerance of the best (a member stuck far off does not veto)
+            done = done & (jnp.median(fit) - jnp.min(fit) <= tol)
+        return done
+
+    def spec(self) -> dict:
+        """The rule as result.json records it."""
+        return {"rtol": float(self.rtol), "atol": float(self.atol), "patience": int(self.patience)}

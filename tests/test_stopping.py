@@ -9,6 +9,7 @@ import pytest
 
 import dcjax
 from dcjax.cli import main
+from dcjax.strategies.base import has_converged
 from dcjax.strategies.stopping import Converged
 
 METHODS = ["de-rand-1-exp", "de-best-1-bin", "tlbo", "ga", "abc", "cma-es"]
@@ -59,12 +60,12 @@ def test_the_population_must_agree_for_the_des_but_not_for_ga():
     history = np.array([3.0, 2.0, 1.0, 1.0, 1.0, 1.0, np.nan])
     spread = np.array([1.0, 5.0])
     rule = Converged(rtol=0.0, atol=1e-9, patience=3)
-    assert bool(rule.reached(np.int64(6), history, spread, spread=False))
-    assert not bool(rule.reached(np.int64(6), history, spread, spread=True))
-    assert bool(rule.reached(np.int64(6), history, np.array([1.0, 1.0]), spread=True))
-    assert bool(rule.reached(np.int64(6), history, np.array([1.0, 1.0, 5.0]), spread=True))
-    assert not bool(rule.reached(np.int64(3), history, spread, spread=False))  # fewer iterations than the patience
-    assert not bool(rule.reached(np.int64(6), np.full(7, np.inf), spread, spread=False))  # nothing finite: never
+    assert bool(has_converged(rule, np.int64(6), history, spread, spread=False))
+    assert not bool(has_converged(rule, np.int64(6), history, spread, spread=True))
+    assert bool(has_converged(rule, np.int64(6), history, np.array([1.0, 1.0]), spread=True))
+    assert bool(has_converged(rule, np.int64(6), history, np.array([1.0, 1.0, 5.0]), spread=True))
+    assert not bool(has_converged(rule, np.int64(3), history, spread, spread=False))  # fewer iterations than the patience
+    assert not bool(has_converged(rule, np.int64(6), np.full(7, np.inf), spread, spread=False))  # nothing finite: never
     assert not dcjax.strategies.GA.population_converges and dcjax.strategies.DERand1Exp.population_converges
 
 

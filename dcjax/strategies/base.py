@@ -301,7 +301,24 @@ def converged(strategy: Strategy, carry: RunCarry, stop: Converged | None) -> Bo
     """Whether the run has converged by `stop` (False without one)."""
     if stop is None:
         return jnp.asarray(False)
-    return stop.reached(carry.it, carry.history, carry.state.fit, strategy.population_converges)
+    return has_converged(stop, carry.it, carry.history, carry.state.fit, strategy.population_converges)
+
+
+def has_converged(
+    stop: Converged, it: Int[Array, ""], history: Float[Array, " T"], fit: Float[Array, " P"], spread: bool
+) -> Bool[Array, ""]:
+    """`Converged` for a run `it` iterations in (its best OF after each in `history`, its
+    population's OFs `fit`): the best improved by at most rtol |best| + atol over the last
+    `patience` iterations and, with `spread`, half the population within that of the best (the
+    median: a member stuck far off, as a TLBO learner that no longer improves, does not keep
+    the run going). NaN or inf OFs: never."""
+    best = history[jnp.maximum(it - 1, 0)]
+    past = history[jnp.maximum(it - 1 - stop.patience, 0)]
+    tol = stop.rtol * jnp.abs(best) + stop.atol
+    done = (it > stop.patience) & (past - best <= tol)
+    if spread:
+        done = done & (jnp.median(fit) - jnp.min(fit) <= tol)
+    return done
 
 
 def run_steps(

@@ -1,10 +1,9 @@
 """When a run stops before its budget: `Converged`, the rule of scipy's `differential_evolution`
-(`tol`, `atol`), pygmo (`ftol`) and CMA-ES (`tolfun`, stagnation), evaluated inside the compiled
-loop after every iteration. The budget (and a strategy's `generations`) stays the upper bound."""
+(`tol`, `atol`), pygmo (`ftol`) and CMA-ES (`tolfun`, stagnation), which the run loop asks after
+every iteration inside the compiled loop (`dcjax.strategies.base.converged`). The budget (and a
+strategy's `generations`) stays the upper bound."""
 
 import equinox as eqx
-import jax.numpy as jnp
-from jaxtyping import Array, Bool, Float, Int
 
 from ..errors import ConfigError
 
@@ -28,17 +27,6 @@ class Converged(eqx.Module):
                 raise ConfigError(f"Converged.{name} must be a finite number >= 0, got {v!r}")
         if not isinstance(self.patience, int) or isinstance(self.patience, bool) or self.patience < 1:
             raise ConfigError(f"Converged.patience must be a positive integer (iterations), got {self.patience!r}")
-
-    def reached(self, it: Int[Array, ""], history: Float[Array, " T"], fit: Float[Array, " P"], spread: bool) -> Bool[Array, ""]:
-        """Whether a run `it` iterations in (its best OF after each in `history`, its population's
-        OFs `fit`) has converged; `spread`: the population's OFs must agree too."""
-        best = history[jnp.maximum(it - 1, 0)]
-        past = history[jnp.maximum(it - 1 - self.patience, 0)]
-        tol = self.rtol * jnp.abs(best) + self.atol
-        done = (it > self.patience) & (past - best <= tol)  # NaN/inf: never
-        if spread:  # half the population within the tolerance of the best (a member stuck far off does not veto)
-            done = done & (jnp.median(fit) - jnp.min(fit) <= tol)
-        return done
 
     def spec(self) -> dict:
         """The rule as result.json records it."""

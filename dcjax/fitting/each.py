@@ -3,6 +3,7 @@ check or prepare fails alone (`FailedFit`) and every other one is fitted, the re
 structure in one compiled call."""
 
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 
 from ..errors import ConfigError
@@ -15,7 +16,7 @@ from .parameter_spec import ParameterSpec
 from .planning import plan
 from .result import FailedFit, FitResult
 from .search import Search
-from .sets import RecordingSet, failed, fit_sets
+from .sets import RecordingSet, fit_sets
 
 
 def fit_each(
@@ -50,25 +51,20 @@ def fit_each(
     if isinstance(params, (list, tuple)) and len(params) != len(items):
         raise ConfigError(f"params: one entry per recording ({len(items)}), got {len(params)}")
     loader = load or (lambda path: load_recording(path, model=p.model))
-    out: list = [None] * len(items)
-    sets, at = [], []
-    for k, item in enumerate(items):
-        source = None if isinstance(item, Recording) else str(item)
-        try:  # one broken recording fails alone, whatever broke in loading it
-            rec = item if isinstance(item, Recording) else loader(str(item))
-        except Exception as e:
-            if on_error == "raise":
-                raise
-            out[k] = failed(item.name if isinstance(item, Recording) else Path(str(item)).stem, e, source)
-            continue
-        sets.append(RecordingSet([rec], _params_of(params, k), rec.name, source))
-        at.append(k)
-    for k, res in zip(at, fit_sets(p, sets, "fleet" if checks else "none", on_error, progress)):
-        out[k] = res
-    return out
+    sets = [
+        RecordingSet(
+            [item] if isinstance(item, Recording) else partial(_loaded, loader, str(item)),
+            _params_of(params, k),
+            item.name if isinstance(item, Recording) else Path(str(item)).stem,
+            None if isinstance(item, Recording) else str(item),
+        )
+        for k, item in enumerate(items)
+    ]
+    return fit_sets(p, sets, "fleet" if checks else "none", on_error, progress)
 
 
-def _one(loader: Callable[[str], Recording], path: str) -> list[Recording]:
+def _loaded(loader: Callable[[str], Recording], path: str) -> list[Recording]:
+    """The file at `path` as a set of one recording (`fit_sets` calls it: a failure fails alone)."""
     return [loader(path)]
 
 

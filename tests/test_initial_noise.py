@@ -86,3 +86,26 @@ def test_a_noisy_pmsm_fit_is_within_two_standard_errors_by_default():
         errors[tag] = {n: abs(u.params[n] - v) / u.se[n] for n, v in TRUTH.items()}
     assert max(errors["default"].values()) <= 2.0, errors
     assert max(errors["measured"].values()) > 3.0, errors
+
+
+def test_a_fitted_start_on_its_bound_is_a_warning(sd1_true):
+    """A noisy DC recording (the NumPy reference, 0.5 % noise) whose first speed sample is a spike
+    of 200 noise sd: the start the data want (rest) lies outside the default range (the first sample
+    +- 8 noise sd), so y0_omega ends on its bound, and the fit says so in one line; from the
+    recording as it is, no warning."""
+    t = np.arange(301) * 1e-4
+    u = np.where(t < 0.002, 0.0, 220.0)
+    y = ref.simulate(ref.dc_field, sd1_true, t, u[:, None], np.zeros(2), substeps=4)
+    rng = np.random.default_rng(0)
+    y = y + 0.005 * np.abs(y).max(axis=0) * rng.standard_normal(y.shape)
+    rec = dcjax.Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], name="spike")
+    spike = rec.replace(omega=np.r_[y[0, 1] + 200 * noise_level(y[:, 1]), y[1:, 1]])
+    search = {"runs": 2, "budget": 14_000}
+    with pytest.warns(UserWarning, match=r"y0_omega ended on its range's bound \(the first sample \+- 8 noise sd, .*'measured'"):
+        res = dcjax.fit(spike, params="table4", search=search)
+    assert "y0_omega" in res.at_bound(rtol=1e-3)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message="y0_")
+        dcjax.fit(rec, params="table4", search=search)

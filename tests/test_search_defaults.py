@@ -1,7 +1,11 @@
 """The search where none is asked for (`dcjax.Search.for_steps`), on the command line and in
-`dcjax.fit(search=None)`: the paper's for one recording, `--each` and a short joint fit; a shorter
-DE/best/1/bin search for a joint fit of many recordings; a flag that is given always wins; the
-0.3 keywords of `fit` still work, with a warning, and give the same bits."""
+`dcjax.fit(search=None)`: the paper's method, runs and budget ending each run once it has
+converged for one recording, `--each` and a short joint fit; a short CMA-ES search for a joint fit
+of many recordings; the paper's fixed budget for the paper's data (a sidecar naming Table 4 or 8);
+a flag that is given always wins; the 0.3 keywords of `fit` still work, with a warning, and give
+the same bits."""
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -11,7 +15,7 @@ from dcjax.cli.fit_command import FitCommand
 from dcjax.cli.parser import build_parser
 from dcjax.fitting.search import MANY_STEPS, Search, search_of
 
-PAPER_SEARCH, MANY_SEARCH = Search.paper(), Search.many()
+PAPER_SEARCH, OWN_SEARCH, MANY_SEARCH = Search.paper(), Search.own(), Search.many()
 
 
 def recordings(n: int, samples: int) -> list[dcjax.Recording]:
@@ -33,27 +37,50 @@ def search_for(c: FitCommand, recs) -> Search:
 
 def chosen(argv: list[str], recs) -> tuple:
     search = search_for(command(argv), recs)
-    return search.name, search.runs, search.budget, type(search.strategy).__name__
+    return search.name, search.runs, search.budget, type(search.strategy).__name__, search.stop
 
 
 def test_a_joint_fit_of_many_samples_gets_the_short_search():
     many = recordings(4, MANY_STEPS // 4)
-    assert chosen([], many) == (MANY_SEARCH.method, MANY_SEARCH.runs, MANY_SEARCH.budget, "DEBest1Bin")
+    assert chosen([], many) == ("de-best-1-bin", MANY_SEARCH.runs, MANY_SEARCH.budget, "DEBest1Bin", dcjax.Converged())
+    assert MANY_SEARCH.strategy.pop_size == 30 and MANY_SEARCH.runs == 1
     assert chosen(["--nd", "2"], recordings(4, MANY_STEPS // 8)) == chosen([], many)  # sub-steps count
-    assert Search.for_steps(MANY_STEPS - 1) == PAPER_SEARCH and MANY_SEARCH.budget * MANY_SEARCH.runs < PAPER_SEARCH.budget
+    assert Search.for_steps(MANY_STEPS - 1) == OWN_SEARCH and MANY_SEARCH.budget * MANY_SEARCH.runs < PAPER_SEARCH.budget
+    assert dataclasses.replace(OWN_SEARCH, stop=None) == PAPER_SEARCH  # the paper's search, stopping on convergence
 
 
 @pytest.mark.parametrize("recs", [recordings(1, 2 * MANY_STEPS), recordings(3, 501), []], ids=["one long", "short joint", "each"])
-def test_otherwise_the_papers(recs):
-    assert chosen([], recs) == (PAPER_SEARCH.method, PAPER_SEARCH.runs, PAPER_SEARCH.budget, "DERand1Exp")
+def test_otherwise_the_papers_search_stopping_on_convergence(recs):
+    assert chosen([], recs) == (PAPER_SEARCH.method, PAPER_SEARCH.runs, PAPER_SEARCH.budget, "DERand1Exp", dcjax.Converged())
 
 
 def test_a_given_flag_wins_and_the_rest_follow_the_size():
     many = recordings(2, MANY_STEPS)
-    assert chosen(["--runs", "3"], many) == (MANY_SEARCH.method, 3, MANY_SEARCH.budget, "DEBest1Bin")
+    assert chosen(["--runs", "3"], many) == ("de-best-1-bin", 3, MANY_SEARCH.budget, "DEBest1Bin", MANY_SEARCH.stop)
     assert chosen(["--method", "tlbo", "--generations", "5"], many)[:3] == ("tlbo", MANY_SEARCH.runs, MANY_SEARCH.budget)
     assert search_for(command(["--generations", "5"]), many).generations == 5
-    assert chosen(["--budget", "900"], recordings(2, 100)) == (PAPER_SEARCH.method, PAPER_SEARCH.runs, 900, "DERand1Exp")
+    assert chosen(["--budget", "900"], recordings(2, 100)) == (PAPER_SEARCH.method, PAPER_SEARCH.runs, 900, "DERand1Exp", OWN_SEARCH.stop)
+    assert chosen(["--stop", "never"], many)[-1] is None and chosen(["--stop", "patience=7"], many)[-1] == dcjax.Converged(patience=7)
+
+
+def test_the_papers_data_keep_the_papers_fixed_budget():
+    """A fit of recordings whose sidecars name Table 4 or 8 (the embedded SD*/MD*) runs the paper's
+    search, every run spending its budget, where no stopping rule is asked for; one's own data,
+    or the paper's data with `stop` given, run the rule; the result records what ran."""
+    sd1 = dcjax.datasets.load("SD1").select(slice(0, 201))
+    own = sd1.replace(name="own", metadata={k: v for k, v in sd1.metadata.items() if k != "bounds"})
+    assert sd1.metadata["bounds"] == "table4" and "bounds" not in own.metadata
+    few, loose = {"runs": 1, "budget": 2800}, {"runs": 1, "budget": 100_000, "stop": dcjax.Converged(rtol=1e-3, atol=1e-5, patience=10)}
+    paper = dcjax.fit(sd1, params="table4", search=few)
+    mine, asked = dcjax.fit(own, params="table4", search=loose), dcjax.fit(sd1, params="table4", search=loose)
+    assert paper.search.stop is None and paper.run_status == (dcjax.RunStatus.BUDGET,)
+    assert mine.search.stop == asked.search.stop == dcjax.Converged(rtol=1e-3, atol=1e-5, patience=10).spec()
+    assert mine.run_status == asked.run_status == (dcjax.RunStatus.CONVERGED,)
+    default = dcjax.fitting.planning.plan("dc", few)
+    assert default.default_stop and default.search.stop == dcjax.Converged()
+    assert default.for_data([[own]]).search.stop == dcjax.Converged() and default.for_data([[sd1], [own]]) is default
+    assert default.for_data([[sd1]]).search == Search.paper(**few)
+    assert not dcjax.fitting.planning.plan("dc", {"stop": None}).default_stop
 
 
 def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
@@ -75,7 +102,7 @@ def test_fit_resolves_its_search_from_the_problem_and_takes_the_old_keywords():
     try:
         with pytest.raises(RuntimeError, match="stop here"):
             dcjax.fit(many, params="table4")
-        assert seen.pop("search") == Search.many()
+        assert seen.pop("search") == Search.many()  # table4 given, no sidecar: not the paper's data
         with pytest.raises(RuntimeError, match="stop here"):
             dcjax.fit(many, params="table4", search={"runs": 3, "generations": 4})  # changes to the default
         assert seen["search"] == Search.many(runs=3).with_generations(4)

@@ -20,7 +20,7 @@ def channel_fit(result, recording) -> dict[str, float]:
 
 def stop_summary(result) -> str:
     """How the search's stopping rule (`Search.stop`) ended the runs: `2/2 runs after 9,310 of
-    20,000 FEs (mean; rtol 1e-10, atol 0, patience 100)`."""
+    20,000 FEs (mean; rtol 1e-08, atol 0, patience 50)`."""
     spec = result.search.stop or {}
     rule = f"rtol {spec.get('rtol', 0):g}, atol {spec.get('atol', 0):g}, patience {spec.get('patience', 0)}"
     conv = np.zeros(len(result.run_of), bool) if result.converged is None else np.asarray(result.converged, bool)

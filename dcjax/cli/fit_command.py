@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from ..errors import ConfigError
 from ..fitting.observation import Observation
 from ..fitting.parameter_spec import ParameterSpec
-from ..fitting.search import MANY_STEPS, Search
+from ..fitting.search import MANY, MANY_STEPS, Search
 from ..models import MODELS, DiscreteModel, Model, get_model
 from ..simulation.integrators import INTEGRATORS, AutoSubsteps, Integrator
 from ..simulation.losses import get_loss
@@ -19,7 +19,9 @@ from ..strategies.memory import MEMORIES
 from ..strategies.stopping import Converged
 from .common import Loader, add_data_options, add_output_options
 from .output import OutputFolder, drop_sidecars, each_products, fit_products
-from .values import mapping, named_numbers, named_numbers_or_numbers, named_ranges, names, numbers, substeps
+from .values import mapping, named_numbers, named_numbers_or_numbers, named_ranges, names, numbers, stop_rule, substeps
+
+NOT_GIVEN = object()  # --stop absent: the default's rule
 
 
 def add_arguments(f: argparse.ArgumentParser) -> None:
@@ -34,12 +36,12 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
     f.add_argument(
         "--model", default="dc", help=f"{', '.join(MODELS)} (built in; dc the default), package.module:attr or path/to/file.py:Name"
     )
-    paper, many = Search.paper(), Search.many()
+    paper = Search.paper()
     f.add_argument(
         "--method",
         default=None,
         help=f"{', '.join(METHODS)}, cma-es or an evosax algorithm (CMA_ES, PSO, ...); default "
-        f"{paper.method}, and {many.method} for a joint fit of >= {MANY_STEPS:,} samples (many recordings)",
+        f"{paper.method}, and {MANY['method']} with {MANY['pop_size']} members for a joint fit of >= {MANY_STEPS:,} samples (many recordings)",
     )
     f.add_argument(
         "--integrator",
@@ -48,12 +50,13 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
         help="default rk4; diffrax: adaptive, for a stiff model (a discrete-time model takes none)",
     )
     f.add_argument("--nd", type=substeps, default=None, help="sub-steps per sample interval (eq. 28), or 'auto' (default 1)")
-    f.add_argument("--runs", type=int, default=None, help=f"default {paper.runs}; {many.runs} for a joint fit of many recordings")
+    f.add_argument("--runs", type=int, default=None, help=f"default {paper.runs}; {MANY['runs']} for a joint fit of many recordings")
     f.add_argument(
         "--budget",
         type=int,
         default=None,
-        help=f"fitness evaluations per run; default {paper.budget:,}, {many.budget:,} for a joint fit of many recordings",
+        help=f"fitness evaluations per run (at most, where a run stops on convergence: --stop); default {paper.budget:,}, "
+        f"{MANY['budget']:,} for a joint fit of many recordings",
     )
     f.add_argument("--seed", type=int, default=None)
     f.add_argument(
@@ -94,14 +97,15 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
     f.add_argument("--generations", type=int, default=None, help="stop each run after this many iterations")
     f.add_argument(
         "--stop",
-        type=named_numbers,
+        type=stop_rule,
         nargs="?",
         const={},
-        default=None,
-        metavar="rtol=R,atol=A,patience=G",
+        default=NOT_GIVEN,
+        metavar="rtol=R,atol=A,patience=G|never",
         help="end a run once it has converged (its best OF improved by at most R|best| + A over G iterations, and for the DEs, "
-        "TLBO and CMA-ES its population's OFs within that of each other); the budget stays the upper bound "
-        f"(default R={Converged().rtol:g}, A={Converged().atol:g}, G={Converged().patience})",
+        "TLBO and CMA-ES half its population's OFs within that of the best); the budget stays the upper bound "
+        f"(R={Converged().rtol:g}, A={Converged().atol:g}, G={Converged().patience} where not given); never: every run spends its "
+        "budget. Default: the rule with those values, and never for the paper's data (a sidecar naming table4 or table8)",
     )
     f.add_argument(
         "--plots",
@@ -220,7 +224,9 @@ class FitCommand:
         }
         if args.memory is not None:
             search["memory"] = MEMORIES[args.memory]
-        if args.stop is not None:
+        if args.stop is None:
+            search["stop"] = None
+        elif args.stop is not NOT_GIVEN:
             unknown = sorted(set(args.stop) - {"rtol", "atol", "patience"})
             if unknown:
                 raise ConfigError(f"--stop takes rtol, atol and patience, got {', '.join(unknown)}")

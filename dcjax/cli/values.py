@@ -74,6 +74,14 @@ def named_numbers_or_numbers(text: str) -> dict[str, float] | tuple[float, ...]:
     return named_numbers(text) if "=" in text else numbers(text)
 
 
+def stop_rule(text: str) -> dict[str, float] | None:
+    """--stop: `rtol=R,atol=A,patience=G` (any of them; the rest the rule's defaults), or `never`
+    (None: every run spends its budget)."""
+    if text.strip().lower() == "never":
+        return None
+    return named_numbers(text) if text.strip() else {}
+
+
 def substeps(text: str) -> int | str:
     """--nd: a positive integer or 'auto'."""
     if text == "auto":

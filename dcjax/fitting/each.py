@@ -42,12 +42,13 @@ def fit_each(
     error and every other one is fitted (`on_error="collect"`, the default; `"raise"`: the first
     such error is raised); the findings are in each result's `checks`. `params`: as `fit` takes
     it, for every recording; a list with one entry per item; or a function of the loaded
-    recording returning its `Parameters`. `search`: a `dcjax.Search` (None: `Search.paper()`; a dict: changes to it, as `fit` takes them).
+    recording returning its `Parameters`. `search`: a `dcjax.Search` (None: `Search.own()`, the paper's search ending each run once it has
+    converged, or where every file is the paper's `Search.paper()`; a dict: changes to it, as `fit` takes them).
     Recordings of one structure (length, channels, limit, free parameters, layout) are fitted in
     one compiled call, with the same results as one fit each (`dcjax.fitting.runs`), with
     `AutoSubsteps` and `progress` too. An error of the batched call itself (not of one recording)
     is raised."""
-    p = plan(model, search, observation=observation, integrator=integrator, default=Search.paper(), legacy=legacy)
+    p = plan(model, search, observation=observation, integrator=integrator, default=Search.own(), legacy=legacy)
     if isinstance(params, (list, tuple)) and len(params) != len(items):
         raise ConfigError(f"params: one entry per recording ({len(items)}), got {len(params)}")
     loader = load or (lambda path: load_recording(path, model=p.model))

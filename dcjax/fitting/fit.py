@@ -56,10 +56,13 @@ def fit(
     per recording of a joint fit (`Tla[0]`, `Tla[1]`, ...); `params` may also hold `offset_*`,
     `delay_*`, `y0_*` entries (ranges, start values, `local`).
 
-    `search`: a `dcjax.Search` (method, runs, budget, seed, memory, polish); None: the paper's
-    (`Search.paper()`: DE/rand/1/exp, 50 runs of 140,000 FEs), or for a joint fit of many
-    recordings `Search.many()` (`Search.for_steps`); a dict of changes to that default
-    (`{"runs": 5}`, also `generations`); the result records the search it ran.
+    `search`: a `dcjax.Search` (method, runs, budget, seed, memory, polish, stop); None:
+    `Search.own()` (the paper's DE/rand/1/exp, 50 runs of at most 140,000 FEs, each ending once
+    it has converged), or for a joint fit of many recordings `Search.many()` (`Search.for_steps`),
+    and for the paper's data (a sidecar naming Table 4 or 8) every run spends its budget as in
+    the paper (`Search.paper()`); a dict of changes to that default (`{"runs": 5}`, also
+    `generations`; `{"stop": None}`: every run spends its budget); the result records the search
+    it ran.
     `integrator`: `Euler(substeps=N)`, `RK4(substeps=N)` (the default, N = 1), a
     `dcjax.Integrator` of your own, or `AutoSubsteps(...)`. `observation`: the terms beyond the
     paper's (`dcjax.Observation`: the loss, initial states, sensor offsets, input delays, the

@@ -23,12 +23,14 @@ def plan(
     legacy: Mapping | None = None,
 ) -> Plan:
     """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others
-    (one-line errors); the search resolved by `search_of` (None: `default`, else the paper's)."""
+    (one-line errors); the search resolved by `search_of` (None: `default`, else `Search.own()`);
+    a stopping rule not asked for is the default's (`Plan.default_stop`: none for the paper's data)."""
     if observation is None:
         observation = Observation()
     if not isinstance(observation, Observation):
         raise ConfigError(f"observation must be a dcjax.Observation(loss=, initial=, offsets=, delays=, measure=), got {observation!r}")
-    search = search_of(search, dict(legacy or {}), Search() if default is None else default)
+    default_stop = search is None or (isinstance(search, Mapping) and "stop" not in search)
+    search = search_of(search, dict(legacy or {}), Search.own() if default is None else default)
     resolved = get_model(model)
     m = observation.check(resolved).observed(resolved)
     if search.polish and not observation.loss.least_squares:
@@ -38,9 +40,11 @@ def plan(
     if isinstance(m, DiscreteModel):
         if isinstance(integrator, AutoSubsteps):
             raise ConfigError(f"model {m.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
-        return Plan(m, integrator_for(m, integrator), search, observation)
+        return Plan(m, integrator_for(m, integrator), search, observation, default_stop)
     if integrator is not None and not isinstance(integrator, (Integrator, AutoSubsteps)):
         raise ConfigError(
             f"integrator must be dcjax.Euler(...), dcjax.RK4(...), a dcjax.Integrator of your own or dcjax.AutoSubsteps(...), got {integrator!r}"
         )
-    return Plan(m, integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator, search, observation)
+    return Plan(
+        m, integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator, search, observation, default_stop
+    )

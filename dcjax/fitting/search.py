@@ -1,9 +1,12 @@
 """How a fit searches, as one typed object (`Search`), and the search a fit gets where none is
-given (`Search.for_steps`): the paper's (DE/rand/1/exp, 50 runs of 140,000 FEs, `Search.paper()`)
-for a fit whose evaluation is short, and a shorter DE/best/1/bin search for a joint fit of many
-recordings (`Search.many()`), where the paper's would take hours (476 servo logs: 50 x 140,000
-evaluations of 1.1 ms). Chosen at equal wall time on 476 servo logs, 128 DC recordings and the
-real EMPS axis: `python -m experiments.bench_many` (`experiments/BENCHMARKS.md`)."""
+given (`Search.for_steps`). The paper's data (recordings whose sidecar names one of the paper's
+presets, `PAPER_PRESETS`) and the reproduction keep the paper's comparison setting
+(DE/rand/1/exp, 50 runs of 140,000 FEs, every run spending its budget: `Search.paper()`); every
+other fit stops a run once it has converged (`DEFAULT_STOP`, the budget the upper bound):
+`Search.own()` for a fit whose evaluation is short, and `Search.many()` for a joint fit of many
+recordings, where the paper's would take hours (476 servo logs: 50 x 140,000 evaluations of
+1.1 ms). Chosen by measurement on 476 servo logs, 128 DC recordings and the real EMPS axis:
+`python -m experiments.bench_defaults` (`experiments/BENCHMARKS.md`)."""
 
 import dataclasses
 import enum
@@ -18,6 +21,9 @@ from ..strategies.memory import MemoryAssistance
 from ..strategies.stopping import Converged
 
 MANY_STEPS = 50_000  # integration steps of one evaluation from which a fit is "of many recordings" (100 of 500 samples)
+PAPER_PRESETS = ("table4", "table8")  # a sidecar naming one marks the paper's data (SD*, MD*): the paper's fixed budget
+DEFAULT_STOP = Converged()  # the stopping rule of every default search but the paper's (`experiments/bench_defaults.py`)
+MANY = {"method": "de-best-1-bin", "pop_size": 30, "runs": 1, "budget": 20_000}  # `Search.many()` beside the rule
 LEGACY = ("method", "runs", "budget", "seed", "memory", "polish")  # fit's keywords of 0.2/0.3, now Search's fields
 
 
@@ -69,19 +75,29 @@ class Search:
 
     @classmethod
     def paper(cls, **changes) -> "Search":
-        """The paper's comparison setting: DE/rand/1/exp, 50 runs of 140,000 FEs (Section 3.1)."""
+        """The paper's comparison setting: DE/rand/1/exp, 50 runs of 140,000 FEs (Section 3.1),
+        every run spending its budget."""
         return cls(**changes)
 
     @classmethod
+    def own(cls, **changes) -> "Search":
+        """The default of a fit of one's own data: the paper's search, each run ending once it has
+        converged (`DEFAULT_STOP`; at most the paper's budget)."""
+        return cls(**{"stop": DEFAULT_STOP, **changes})
+
+    @classmethod
     def many(cls, **changes) -> "Search":
-        """The default of a joint fit of many recordings: DE/best/1/bin, 2 runs of 20,000 FEs."""
-        return cls(**{"method": "de-best-1-bin", "runs": 2, "budget": 20_000, **changes})
+        """The default of a joint fit of many recordings: DE/best/1/bin with 30 members, 1 run of
+        at most 20,000 FEs, ending once it has converged (`DEFAULT_STOP`)."""
+        method = make_strategy(MANY["method"], pop_size=MANY["pop_size"])
+        return cls(**{"method": method, "runs": MANY["runs"], "budget": MANY["budget"], "stop": DEFAULT_STOP, **changes})
 
     @classmethod
     def for_steps(cls, steps: int) -> "Search":
         """The default of a fit whose one evaluation integrates `steps` steps (a joint fit's
-        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else `paper()`."""
-        return cls.many() if steps >= MANY_STEPS else cls.paper()
+        samples times the sub-steps; 0 for one recording): `many()` from `MANY_STEPS` on, else
+        `own()`; a fit of the paper's data runs it without the stopping rule (`for_data`)."""
+        return cls.many() if steps >= MANY_STEPS else cls.own()
 
     @property
     def generations(self) -> int | None:
@@ -183,4 +199,20 @@ def _changed(default: Search, changes: dict) -> Search:
     return search if generations is None else search.with_generations(generations)
 
 
-__all__ = ["LEGACY", "MANY_STEPS", "RunStatus", "Search", "SearchRecord", "search_of"]
+def papers_data(recordings) -> bool:
+    """Whether every one of `recordings` is the paper's: its sidecar names one of `PAPER_PRESETS`."""
+    return bool(recordings) and all(str(r.metadata.get("bounds", "")).lower() in PAPER_PRESETS for r in recordings)
+
+
+__all__ = [
+    "DEFAULT_STOP",
+    "LEGACY",
+    "MANY",
+    "MANY_STEPS",
+    "PAPER_PRESETS",
+    "papers_data",
+    "RunStatus",
+    "Search",
+    "SearchRecord",
+    "search_of",
+]

@@ -309,15 +309,15 @@ def has_converged(
 ) -> Bool[Array, ""]:
     """`Converged` for a run `it` iterations in (its best OF after each in `history`, its
     population's OFs `fit`): the best improved by at most rtol |best| + atol over the last
-    `patience` iterations and, with `spread`, half the population within that of the best (the
-    median: a member stuck far off, as a TLBO learner that no longer improves, does not keep
-    the run going). NaN or inf OFs: never."""
+    `patience` iterations and, with `spread`, more than half the population within that of the
+    best (a member stuck far off, as a TLBO learner that no longer improves, does not keep the
+    run going). NaN or inf OFs: never."""
     best = history[jnp.maximum(it - 1, 0)]
     past = history[jnp.maximum(it - 1 - stop.patience, 0)]
     tol = stop.rtol * jnp.abs(best) + stop.atol
     done = (it > stop.patience) & (past - best <= tol)
-    if spread:
-        done = done & (jnp.median(fit) - jnp.min(fit) <= tol)
+    if spread:  # more than half the population within tol of the best (the median, counted: no sort)
+        done = done & (2 * jnp.sum(fit - best <= tol) > fit.shape[0])
     return done
 
 

@@ -11,9 +11,9 @@ from ..errors import ConfigError
 class Converged(eqx.Module):
     """A run has converged when its best OF improved by at most `rtol` |best| + `atol` over the
     last `patience` iterations and, for a strategy whose population contracts on the optimum
-    (`Strategy.population_converges`: the DEs, TLBO, CMA-ES), half its population's OFs lie
-    within the same tolerance of the best (the median: a member stuck far off, as a TLBO learner
-    that no longer improves, does not keep the run going); GA's mutation and ABC's scouts keep
+    (`Strategy.population_converges`: the DEs, TLBO, CMA-ES), more than half its population's OFs
+    lie within the same tolerance of the best (a member stuck far off, as a TLBO learner that no
+    longer improves, does not keep the run going); GA's mutation and ABC's scouts keep
     their populations diverse, so for them the stagnation of the best alone decides. The defaults
     (rtol 1e-8 over 50 iterations) are every default search's rule but the paper's
     (`dcjax.fitting.search.DEFAULT_STOP`), measured by `python -m experiments.bench_defaults`."""

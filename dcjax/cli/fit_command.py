@@ -103,7 +103,7 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
         default=NOT_GIVEN,
         metavar="rtol=R,atol=A,patience=G|never",
         help="end a run once it has converged (its best OF improved by at most R|best| + A over G iterations, and for the DEs, "
-        "TLBO and CMA-ES half its population's OFs within that of the best); the budget stays the upper bound "
+        "TLBO and CMA-ES more than half its population's OFs within that of the best); the budget stays the upper bound "
         f"(R={Converged().rtol:g}, A={Converged().atol:g}, G={Converged().patience} where not given); never: every run spends its "
         "budget. Default: the rule with those values, and never for the paper's data (a sidecar naming table4 or table8)",
     )

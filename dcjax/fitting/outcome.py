@@ -1,7 +1,9 @@
 """A setup's runs made its `FitResult`, once: the optional Levenberg–Marquardt polish of every
-run (`polish_runs`), the best run, and what the result keeps of the setup (`recorded`)."""
+run (`polish_runs`), the best run, what the result keeps of the setup (`recorded`), and a warning
+per fitted initial state left on its range's bound (`start_warnings`)."""
 
 import time
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -9,6 +11,7 @@ import numpy as np
 
 from ..io.recording import Recording
 from ..simulation.joint import stacked_target
+from .observation import START_SPREAD
 from .polish import polish_batch
 from .result import FitResult
 from .search import Search, SearchRecord
@@ -33,7 +36,8 @@ def polish_runs(run_x, setup: Setup):
 
 def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | None = None) -> FitResult:
     """The result of the runs `out` of one setup, after the optional polish (of the setup the runs
-    ran, `ran`: the setup itself or its padded form, `dcjax.fitting.runs.bucketed`)."""
+    ran, `ran`: the setup itself or its padded form, `dcjax.fitting.runs.bucketed`); a warning
+    per fitted start that ended on its range's bound (`start_warnings`)."""
     run_x = np.asarray(setup.space.to_physical(out.best_x))
     run_of = np.asarray(out.best_f)
     polish_info = None
@@ -41,7 +45,7 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         run_x, run_of, polish_info = polish_runs(run_x, ran or setup)
     best = int(np.argmin(run_of))
     memory = search.memory is not None
-    return FitResult(
+    result = FitResult(
         best_values=dict(zip(setup.space.names, map(float, run_x[best]))),
         of=float(run_of[best]),
         run_of=run_of,
@@ -65,6 +69,9 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         layout=setup.layout,
         **recorded(setup, search),
     )
+    for line in start_warnings(result):  # a fitted start on its range's bound: said, not left silent
+        warnings.warn(line, stacklevel=5)  # make_result, fit_setups, fit_sets, fit / fit_each: their caller
+    return result
 
 
 def recorded(setup: Setup, search: Search) -> dict:
@@ -94,3 +101,31 @@ def _source(r: Recording):
     src = r.metadata.get("source", {"name": r.name})
     peaks = {c: float(np.max(np.abs(v))) for c, v in r.channels.items()}
     return {**src, "limit": r.limit, "peaks": peaks} if isinstance(src, dict) else src
+
+
+START_AT_BOUND = 1e-3  # a fitted start within this share of its range from a bound ended on it (a search nears a bound)
+
+
+def start_warnings(result: FitResult) -> list[str]:
+    """A line per fitted initial state (`y0_<state>`, `y0_<state>[k]`) that ended on its range's
+    bound (within `START_AT_BOUND` of its width): the start the data want lies outside the range,
+    so the other parameters took up the rest."""
+    if result.bounds is None or result.failure:
+        return []
+    out = []
+    for name in result.at_bound(rtol=START_AT_BOUND):
+        if not name.startswith("y0_"):
+            continue
+        state = name[3:].split("[")[0]
+        k = result.names.index(name)
+        lo, hi = float(result.bounds.lower[k]), float(result.bounds.upper[k])
+        where = (
+            f"the first sample +- {START_SPREAD:g} noise sd, {lo:.4g}..{hi:.4g}"
+            if result.observation.defaulted(state)
+            else f"{lo:.4g}..{hi:.4g}"
+        )
+        out.append(
+            f"{name} ended on its range's bound ({where}): the fit wants another start, which the other parameters now "
+            f"absorb; give initial={{{state!r}: 'measured'}} or a wider range for {name.split('[')[0]}"
+        )
+    return out

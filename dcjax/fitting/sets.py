@@ -4,15 +4,14 @@ plan (`fit_sets`); a set that fails to load, has an `error` finding or fails to 
 alone (`FailedFit`) or raises, as the caller asks."""
 
 import dataclasses
-import warnings
 from collections.abc import Callable, Sequence
 
 from ..analysis.checks import ERROR, Finding, batch_findings, from_error, recording_findings
 from ..errors import ConfigError, DataError
 from ..io.recording import Recording
 from .engine import fit_setups
-from .observation import START_SPREAD
 from .result import FailedFit, FitResult
+from .search import papers_data
 from .setup import Plan
 
 ON_ERROR = ("collect", "raise")
@@ -72,7 +71,7 @@ def fit_sets(
             if on_error == "raise":
                 raise
             out[k] = failed(s.name or "", e, s.source)
-    plan = plan.for_data([recs for _, _, recs in loaded])  # the paper's data: the paper's fixed budget
+    plan = for_data(plan, [recs for _, _, recs in loaded])
     found = _findings([recs for _, _, recs in loaded], plan.model, checks)
     ready = []
     for j, (k, s, recs) in enumerate(loaded):
@@ -93,34 +92,13 @@ def fit_sets(
             out[k] = failed(name, e, s.source, findings)
     for (k, _), res in zip(ready, fit_setups(plan, [s for _, s in ready], progress)):
         out[k] = res
-        for line in start_warnings(res):
-            warnings.warn(line, stacklevel=3)
     return out
 
 
-START_AT_BOUND = 1e-3  # a fitted start within this share of its range from a bound ended on it (a search nears a bound)
-
-
-def start_warnings(result: FitResult) -> list[str]:
-    """A line per fitted initial state (`y0_<state>`, `y0_<state>[k]`) that ended on its range's
-    bound (within `START_AT_BOUND` of its width): the start the data want lies outside the range,
-    so the other parameters took up the rest."""
-    if result.bounds is None or result.failure:
-        return []
-    out = []
-    for name in result.at_bound(rtol=START_AT_BOUND):
-        if not name.startswith("y0_"):
-            continue
-        state = name[3:].split("[")[0]
-        k = result.names.index(name)
-        lo, hi = float(result.bounds.lower[k]), float(result.bounds.upper[k])
-        where = (
-            f"the first sample +- {START_SPREAD:g} noise sd, {lo:.4g}..{hi:.4g}"
-            if result.observation.defaulted(state)
-            else f"{lo:.4g}..{hi:.4g}"
-        )
-        out.append(
-            f"{name} ended on its range's bound ({where}): the fit wants another start, which the other parameters now "
-            f"absorb; give initial={{{state!r}: 'measured'}} or a wider range for {name.split('[')[0]}"
-        )
-    return out
+def for_data(plan: Plan, sets: Sequence[Sequence[Recording]]) -> Plan:
+    """The plan for these sets of recordings: where every recording is the paper's (`papers_data`:
+    its sidecar names one of the paper's presets) and the stopping rule was not asked for
+    (`Plan.default_stop`), the paper's fixed budget (no stopping rule); else `plan`."""
+    if not plan.default_stop or not sets or not all(papers_data(recs) for recs in sets):
+        return plan
+    return dataclasses.replace(plan, search=dataclasses.replace(plan.search, stop=None), default_stop=False)

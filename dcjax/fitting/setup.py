@@ -21,7 +21,7 @@ from ..simulation.problem import Problem
 from .observation import Observation
 from .parameter_spec import resolve_parameters
 from .problems import channel_weights, joint_weights, problems_of
-from .search import Search, papers_data
+from .search import Search
 from .vector import base_name, search_vector, start_rows
 
 
@@ -83,21 +83,13 @@ class Plan:
     """A fit's model, integrator (or `AutoSubsteps`), `Search` and `Observation`, resolved and
     checked together once (`plan`); `setup` prepares one fit of recordings with it.
     `default_stop`: the search's stopping rule is the default's, not asked for, so a fit of the
-    paper's data runs without it (`for_data`)."""
+    paper's data runs without it (`dcjax.fitting.sets.for_data`)."""
 
     model: Model
     integrator: Integrator | AutoSubsteps
     search: Search
     observation: Observation
     default_stop: bool = False
-
-    def for_data(self, sets: Sequence[Sequence[Recording]]) -> "Plan":
-        """The plan for these recordings: where every one is the paper's (`papers_data`: its
-        sidecar names one of the paper's presets) and the stopping rule was not asked for, the
-        paper's fixed budget (no stopping rule); else this plan."""
-        if not self.default_stop or not sets or not all(papers_data(recs) for recs in sets):
-            return self
-        return dataclasses.replace(self, search=dataclasses.replace(self.search, stop=None), default_stop=False)
 
     def setup(self, recordings: Sequence[Recording], params, starts=None, findings=()) -> Setup:
         """The `Setup` of a fit of `recordings`: `params` resolved (`resolve_parameters`: None, a

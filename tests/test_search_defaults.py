@@ -78,8 +78,9 @@ def test_the_papers_data_keep_the_papers_fixed_budget():
     assert mine.run_status == asked.run_status == (dcjax.RunStatus.CONVERGED,)
     default = dcjax.fitting.planning.plan("dc", few)
     assert default.default_stop and default.search.stop == dcjax.Converged()
-    assert default.for_data([[own]]).search.stop == dcjax.Converged() and default.for_data([[sd1], [own]]) is default
-    assert default.for_data([[sd1]]).search == Search.paper(**few)
+    for_data = dcjax.fitting.sets.for_data
+    assert for_data(default, [[own]]).search.stop == dcjax.Converged() and for_data(default, [[sd1], [own]]) is default
+    assert for_data(default, [[sd1]]).search == Search.paper(**few)
     assert not dcjax.fitting.planning.plan("dc", {"stop": None}).default_stop
 
 

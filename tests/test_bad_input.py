@@ -391,7 +391,10 @@ def test_an_interrupt_ends_with_one_line_and_leaves_nothing_half_written(tmp_pat
     p = _dcjax("fit", "data/SD1.csv", "--bounds", "table4", "--runs", "50", "--budget", "1000000", "--out", str(out))
     import time
 
-    time.sleep(6)  # in the search (the compiled call that returns to Python at its end)
+    t = time.perf_counter()  # the command has started once it holds its --out (its imports done: a SIGINT that lands
+    while not out.exists() and time.perf_counter() - t < 60:  # in one of jax's gc callbacks while Python imports is lost)
+        time.sleep(0.1)
+    time.sleep(3)  # in the search (the compiled call that returns to Python at its end)
     t = time.perf_counter()
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=60)

@@ -1,8 +1,7 @@
 """The initial-state default across a fleet (issue: searches that stop when they are done, item 4):
 N recordings of one DC motor (SD1's, Table 4's truth) under N stepped voltages, each starting at
 rest for 2 ms, simulated by the independent NumPy reference (`dcjax.io.numpy_simulator`, RK4), with
-Gaussian sensor noise of `--noise` of each channel's peak and the speed read by an encoder of
-`--counts` counts a revolution. Each recording fitted on its own (`dcjax.fit_each`, Table 4's
+Gaussian sensor noise of `--noise` of each channel's peak (`bench_many.dc_recordings`). Each recording fitted on its own (`dcjax.fit_each`, Table 4's
 ranges, `--runs` runs of the default search) with the default initial state (a noisy state's start
 fitted: `y0_<state>` within its first sample +- 8 noise sd) and from the first samples
 (`initial=measured`). Prints per parameter the bias (mean relative error) and the spread (sd of
@@ -20,38 +19,21 @@ import warnings
 import numpy as np
 
 import dcjax
-from dcjax.io.numpy_simulator import simulate_numpy
+
+from .bench_many import dc_recordings
 
 SETTINGS = {"default (fit noisy starts)": None, "measured": dcjax.Observation(initial={"i_a": "measured", "omega": "measured"})}
-
-
-def fleet(n: int, noise: float, counts: int, seed: int = 0) -> tuple[list[dcjax.Recording], dict]:
-    rng = np.random.default_rng(seed)
-    truth = dcjax.datasets.true_params("SD1")
-    x = np.array([truth[p] for p in dcjax.DC.names])
-    t = 1e-4 * np.arange(501)
-    recs = []
-    for k in range(n):
-        levels = rng.uniform(20.0, 220.0, rng.integers(2, 6))
-        u = np.repeat(levels, -(-len(t) // len(levels)))[: len(t)] * (t >= 0.002)
-        y = simulate_numpy(x, t, u)
-        y = y + noise * np.max(np.abs(y), axis=0) * rng.standard_normal(y.shape)
-        if counts:
-            y[:, 1] = np.round(y[:, 1] / (2 * np.pi / counts)) * (2 * np.pi / counts)
-        recs.append(dcjax.Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], name=f"run{k}"))
-    return recs, truth
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recordings", type=int, default=50)
     ap.add_argument("--noise", type=float, default=0.005)
-    ap.add_argument("--counts", type=int, default=0, help="quantise the speed to this many counts a revolution (0: not)")
     ap.add_argument("--runs", type=int, default=4)
     args = ap.parse_args()
     dcjax.use_host_devices()  # as the CLI starts
     dcjax.use_compiled_loops()
-    recs, truth = fleet(args.recordings, args.noise, args.counts)
+    recs, truth = dc_recordings(args.recordings, args.noise), dcjax.datasets.true_params("SD1")
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores; {args.recordings} recordings, noise {args.noise:g} "
           f"of peak, {args.runs} runs each (the default search otherwise)")  # fmt: skip
     names = ("Ra", "La", "cm", "J", "Tla")

@@ -38,7 +38,10 @@ def servo_case(n: int = 476) -> dict:
     return dict(data=recs, model="servo", params=box, observation=obs)
 
 
-def dc_case(n: int = 128, seed: int = 0) -> dict:
+def dc_recordings(n: int = 128, noise: float = 0.005, seed: int = 0) -> list[dcjax.Recording]:
+    """The SD1 motor (Table 4's truth) under `n` stepped voltages (2 to 5 levels in 20..220 V, at
+    rest for 2 ms), 501 samples at 0.1 ms, simulated by the NumPy reference (RK4), Gaussian noise
+    of `noise` of each channel's peak."""
     rng = np.random.default_rng(seed)
     truth = dcjax.datasets.true_params("SD1")
     x = np.array([truth[p] for p in dcjax.DC.names])
@@ -48,9 +51,13 @@ def dc_case(n: int = 128, seed: int = 0) -> dict:
         levels = rng.uniform(20.0, 220.0, rng.integers(2, 6))
         u = np.repeat(levels, -(-len(t) // len(levels)))[: len(t)] * (t >= 0.002)
         y = simulate_numpy(x, t, u)
-        y = y + 0.005 * np.max(np.abs(y), axis=0) * rng.standard_normal(y.shape)
+        y = y + noise * np.max(np.abs(y), axis=0) * rng.standard_normal(y.shape)
         recs.append(dcjax.Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], name=f"run{k}"))
-    return dict(data=recs, model="dc", params="auto", observation=None)
+    return recs
+
+
+def dc_case(n: int = 128, seed: int = 0) -> dict:
+    return dict(data=dc_recordings(n, seed=seed), model="dc", params="auto", observation=None)
 
 
 def emps_case(emps: Path) -> dict | None:

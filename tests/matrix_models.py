@@ -5,12 +5,15 @@ twins, written independently, are in `tests/reference.py`):
   the speed, the speed a derivative state);
 - `EulerDC`: the same motor as a `dcjax.DiscreteModel` (its forward-Euler map per sample), and
   `EncoderEulerDC`;
+- `SensorDC`, `SensorEulerDC`: the motor read through an output equation (torque cm i_a, |omega|);
 - `PMSM`: a two-input (ud, uq), three-state (id, iq, w) synchronous motor in the dq frame, its
   pole pairs a per-recording constant input; `EncoderPMSM`.
 
 A CLI test names a class here as `tests/matrix_models.py:PMSM`."""
 
 from typing import ClassVar
+
+import jax.numpy as jnp
 
 import dcjax
 from dcjax.models.dc import vector_field as dc_vector_field
@@ -100,3 +103,26 @@ class EncoderPMSM(PMSM):
 
     def vector_field(self, c, u, y):
         return (*super().vector_field(c, u, y[:3]), y[2])
+
+
+class SensorDC(dcjax.DC):
+    """The paper's motor read through an output equation: a torque sensor (cm i_a, a parameter
+    in the output) and a speed sensor that cannot see the sign (|omega|)."""
+
+    outputs: ClassVar[tuple[str, ...]] = ("torque", "speed")
+
+    @property
+    def name(self) -> str:
+        return "sensor-dc"
+
+    def output(self, c, u, y):
+        return (c.b / c.gu * y[0], jnp.abs(y[1]))
+
+
+class SensorEulerDC(EulerDC):
+    """`EulerDC` through `SensorDC`'s sensors."""
+
+    outputs: ClassVar[tuple[str, ...]] = ("torque", "speed")
+
+    def output(self, c, u, y):
+        return (c.b / c.gu * y[0], jnp.abs(y[1]))

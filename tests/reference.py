@@ -53,6 +53,28 @@ def pmsm_encoder_field(p, u, y):
     return np.append(pmsm_field(p, u, y[:3]), y[2])
 
 
+def dc_sensors(p, states):
+    """The paper's motor read by a torque sensor (cm i_a) and a sign-blind speed sensor (|omega|)."""
+    return {"torque": p["cm"] * states[:, 0], "speed": np.abs(states[:, 1])}
+
+
+def spring_drive_field(p, u, y):
+    """A DC drive on a torsion spring, (di/dt, dw/dt, dth/dt) with L = 0.05 H and viscous
+    friction 0.02 N m s known: L di/dt = u - R i - k w, J dw/dt = k i - 0.02 w - K th."""
+    i, w, th = y[0], y[1], y[2]
+    return np.array([(u[0] - p["R"] * i - p["k"] * w) / 0.05, (p["k"] * i - 0.02 * w - p["K"] * th) / p["J"], w])
+
+
+def abs_speed_sensor(states):
+    """A pulse counter on a pulley of ratio 0.5 that cannot see the sign: y = |0.5 w|."""
+    return np.abs(0.5 * states[:, 1])
+
+
+def saturating_sensor(states):
+    """A speed sensor that saturates at 6 rad/s: y = min(w, 6)."""
+    return np.minimum(states[:, 1], 6.0)
+
+
 def servo_m1_map(p, u, y, h):
     """BAM's "m1" actuator on its pendulum bench (a Dynamixel MX under its firmware's P loop), one
     step of h, written from the BAM paper's description: duty = clip(kp 0.158 (goal - q), +-0.9625),

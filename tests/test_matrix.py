@@ -9,7 +9,10 @@ far lengths (one scan each, as a long search keeps them; "far-padded": the cells
 pads them into one, `joint_buckets`, ODE models), every feature at once ("all": local, offset, delay, fitted initial
 state; and on close lengths "all-derivative": the derivative start with the others); each on the
 paper's DC motor (an ODE), the same motor as a discrete-time model (its Euler map) and a
-two-input, three-state PMSM in the dq frame with a per-recording constant input. A cell per
+two-input, three-state PMSM in the dq frame with a per-recording constant input; and on the motor
+read through an output equation (`sensor`, `sensor-discrete`: a torque sensor cm i_a and a
+sign-blind speed sensor |omega|, the reference's `dc_sensors`), the features that read the outputs
+(`SENSOR_CELLS`). A cell per
 feature and length (72) would not fit the test time: each compiles a search and a polish.
 
 A cell checks composition and exactness, not the global search: the parameters start 3 % off the
@@ -37,7 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import reference as ref
-from matrix_models import PMSM, EncoderDC, EncoderEulerDC, EncoderPMSM, EulerDC
+from matrix_models import PMSM, EncoderDC, EncoderEulerDC, EncoderPMSM, EulerDC, SensorDC, SensorEulerDC
 
 import dcjax
 from dcjax.simulation.joint import padded
@@ -66,6 +69,7 @@ class Case:
     speed: str  # the speed state (a derivative of the angle in the encoder variant)
     measure: tuple[str, ...] = ()  # the states a `measure` cell compares (the others' columns still give their initial values)
     known: str | None = None  # the parameter a `measure` cell fixes at its truth (where the compared states leave a symmetry)
+    sensors: Callable | None = None  # an output equation's reference (p, states) -> {output: values}; the states' columns give their starts
 
 
 DC_TRUTH = dict(Ra=42.5, La=0.08, cm=0.4781, J=2e-5, Tla=0.01, Tlb=3.27e-5, Tlc=8.55e-8)
@@ -112,6 +116,9 @@ CASES = {
         measure=("id", "iq"),  # the currents alone: the speed enters both through pp w Lq iq and pp w (Ld id + psi)
     ),  # fmt: skip
 }
+SENSOR_CASE = dataclasses.replace(DC_CASE, model=SensorDC(), sensors=ref.dc_sensors, offset="torque")
+CASES["sensor"] = SENSOR_CASE  # an output equation: an ODE model and a discrete-time one
+CASES["sensor-discrete"] = dataclasses.replace(SENSOR_CASE, model=SensorEulerDC(), field=ref.dc_euler_map, discrete=True)
 LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120), "far-padded": (240, 120)}
 FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative", "measure", "zoh", "zoh-delay")
 # Joint fits take the features together (a cell compiles a search and a polish, 5-10 s on 2 cores:
@@ -123,6 +130,12 @@ COMBINED = {
     "zoh-delay": ("zoh", "delay"),  # a held input delayed: the step moves whole
 }
 JOINT = {"equal": ("all",), "close": ("all", "all-derivative"), "far": ("all",), "far-padded": ("all",)}
+# The output-equation cases: each feature that reads the outputs (offsets on an output, a local
+# parameter, a delay, a held input, a fitted start of a state that is not an output) on one
+# recording, and every one at once on two of equal length (no encoder variant: the derivative and
+# measure cells are the state-output cases'; the lengths' cells do not read the outputs); `fit_each`
+# and the design on the ODE one.
+SENSOR_CELLS = {"one": ("local", "offset", "delay", "initial-fit", "zoh"), "equal": ("all",)}
 
 
 def parts(feature: str) -> tuple[str, ...]:
@@ -136,6 +149,8 @@ FAST = {  # every feature, every model and a joint fit at least once; the other 
     ("discrete", "one", "offset"),
     ("discrete", "one", "initial-derivative"),
     ("dc", "one", "initial-fit"),
+    ("sensor", "equal", "all"),
+    ("sensor-discrete", "one", "offset"),
 }
 
 
@@ -180,7 +195,10 @@ def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
             y = ref.iterate(field, p, t, u, y0, delays=delays, held=held)
         else:
             y = ref.simulate(field, p, t, u, y0, substeps=32, delays=delays, held=held)
-        channels = {c: y[:, model.states.index(c)] for c in (model.states if "measure" in f else model.outputs)}
+        if case.sensors is not None:  # the outputs from the reference's sensors; the states' columns give their initial values
+            channels = {s: y[:, k] for k, s in enumerate(model.states)} | case.sensors(p, y)
+        else:
+            channels = {c: y[:, model.states.index(c)] for c in (model.states if "measure" in f else model.outputs)}
         if "offset" in f:
             offset = 0.03 * float(np.max(np.abs(channels[case.offset])))
             truth.setdefault(f"offset_{case.offset}", offset)
@@ -249,6 +267,7 @@ CELLS = [
     for ln in LENGTHS
     for f in (FEATURES if ln == "one" else JOINT[ln])
     if not (ln == "far-padded" and CASES[m].discrete)  # a map is not padded: "far" is its cell
+    if CASES[m].sensors is None or f in SENSOR_CELLS.get(ln, ())
 ]
 
 
@@ -289,7 +308,7 @@ def test_the_reference_converges(model_key):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model_key", list(CASES))
+@pytest.mark.parametrize("model_key", [k for k in CASES if k != "sensor-discrete"])
 def test_each_fits_every_recording_alone(model_key):
     """`fit_each` over recordings of three lengths (240, 216, 120 samples: at this budget one
     padded program for an ODE model, `dcjax.fitting.runs.bucketed`) and a file that does not exist: each
@@ -411,7 +430,7 @@ def test_a_result_simulates_on_a_power_of_two_grid_to_the_same_bits(model_key):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model_key", list(CASES))
+@pytest.mark.parametrize("model_key", [k for k in CASES if k != "sensor-discrete"])
 def test_design_designs_every_recorded_input(model_key):
     """`design_input` on each model at its truth: every recorded input designed within its range,
     the per-recording constants held, every parameter identifiable (finite predicted errors), no

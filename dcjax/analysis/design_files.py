@@ -18,12 +18,12 @@ def noise_from_fit(result) -> dict[str, float] | None:
     rec = result.recording
     if rec is None:
         return None
-    sim = result.simulate(rec)
+    sim = result.simulate_outputs(rec)
     m = result.model
     out = {}
-    for c in m.outputs:
+    for j, c in enumerate(m.outputs):
         y = np.asarray(rec[c])
-        r = float(np.sqrt(np.mean((y - sim[:, m.states.index(c)]) ** 2)))
+        r = float(np.sqrt(np.mean((y - sim[:, j]) ** 2)))
         if not r > 1e-9 * np.max(np.abs(y)):
             return None
         out[c] = r

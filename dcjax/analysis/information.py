@@ -17,7 +17,7 @@ from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model
 from ..simulation.integrators import RK4
-from ..simulation.objectives import simulate
+from ..simulation.objectives import outputs_of, simulate, simulate_outputs
 from ..simulation.problem import Problem, make_problem
 
 simulate_jit = filter_jit(simulate)  # the eager calls: one compiled program per shape, not a new scan each call
@@ -58,7 +58,7 @@ def template_problem(
     prob = make_problem(rec, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
     x = jnp.asarray([params[n] for n in model.names])
     sim = simulate_jit(x, prob)
-    return eqx.tree_at(lambda p: p.y_meas, prob, sim[:, jnp.asarray(model.output_index)])
+    return eqx.tree_at(lambda p: p.y_meas, prob, outputs_of(x, prob, sim))
 
 
 def with_input(prob: Problem, u: jax.Array, columns: Sequence[int] = (0,)) -> Problem:
@@ -74,12 +74,11 @@ def with_input(prob: Problem, u: jax.Array, columns: Sequence[int] = (0,)) -> Pr
 def information(prob: Problem, x: jax.Array, free: jax.Array, sigma: jax.Array, scale: jax.Array | None = None) -> jax.Array:
     """F (F x F) of the scaled free parameters theta_j = x_j + scale_j delta_j (default scale
     |x_j|: relative parameters): sum over samples and channels of s s^T / sigma^2, s = dy/d delta."""
-    outs = jnp.asarray(prob.model.output_index)
     scale = jnp.abs(x[free]) if scale is None else scale
 
     def y_of(delta):
         xx = x.at[free].add(scale * delta)
-        return simulate(xx, prob)[:, outs] / sigma  # (N, C)
+        return simulate_outputs(xx, prob) / sigma  # (N, C)
 
     s = jax.jacfwd(y_of)(jnp.zeros(free.shape[0], x.dtype))  # (N, C, F)
     s = s.reshape(-1, s.shape[-1])

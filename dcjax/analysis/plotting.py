@@ -57,9 +57,9 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
         raise ConfigError("no recording to plot: pass recordings= (a loaded result keeps no data it could not find)")
     if ax is not None:
         axes = list(np.atleast_1d(ax))
-        sim = result.simulate(recs[0])
-        for a, c in zip(axes, outs):
-            overlay(a, recs[0], sim[:, model.states.index(c)], c, f"{recs[0].name}: {c}", model)
+        sim = result.simulate_outputs(recs[0])
+        for j, (a, c) in enumerate(zip(axes, outs)):
+            overlay(a, recs[0], sim[:, j], c, f"{recs[0].name}: {c}", model)
         return ax
     shown = recs[:MAX_RECORDINGS]
     history = convergence and np.any(np.isfinite(result.history))
@@ -67,9 +67,9 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
     fig, axes = _figure(2 * len(shown), ncols, (3.6 * ncols, 4.6 * len(shown)), path is not None)
     for r, rec in enumerate(shown):
         top, bottom = axes[2 * r], axes[2 * r + 1]
-        sim = result.simulate(rec)
+        sim = result.simulate_outputs(rec)
         for j, c in enumerate(outs):
-            y = sim[:, model.states.index(c)]
+            y = sim[:, j]
             overlay(top[j], rec, y, c, f"{rec.name}: {c}", model)
             bottom[j].plot(rec.t, y - rec[c], "b-", lw=0.8)
             bottom[j].axhline(0.0, color="k", lw=0.5)

@@ -13,9 +13,8 @@ def fit_percent(measured: np.ndarray, simulated: np.ndarray) -> float:
 
 def channel_fit(result, recording) -> dict[str, float]:
     """Fit % of every measured channel of `recording` under the result's best parameters."""
-    sim = result.simulate(recording)
-    m = result.model
-    return {c: fit_percent(recording[c], sim[:, m.states.index(c)]) for c in m.outputs}
+    sim = result.simulate_outputs(recording)
+    return {c: fit_percent(recording[c], sim[:, j]) for j, c in enumerate(result.model.outputs)}
 
 
 def stop_summary(result) -> str:

@@ -48,6 +48,19 @@ def _simulate_on_grid(x, target: JointProblem, r: int) -> np.ndarray:
     return np.array(_simulate(x, eqx.tree_at(lambda t: t.problems, target, tuple(probs)), r))[: p.n]
 
 
+@filter_jit
+def _simulate_outputs(x, target: JointProblem, r: int):
+    return target.simulate_outputs(x, r)
+
+
+def _outputs_on_grid(x, target: JointProblem, r: int) -> np.ndarray:
+    """`_simulate_on_grid`'s compared outputs (with the fitted offsets)."""
+    p = target.problems[r]
+    probs = list(target.problems)
+    probs[r] = padded(p, grid_length(p.n))
+    return np.array(_simulate_outputs(x, eqx.tree_at(lambda t: t.problems, target, tuple(probs)), r))[: p.n]
+
+
 if TYPE_CHECKING:
     from ..analysis.posterior import Posterior  # lazy: blackjax adds ~0.3 s to importing dcjax
     from ..analysis.uncertainty import Uncertainty  # lazy: optimistix and scipy.stats for an analysis asked for
@@ -429,16 +442,33 @@ class FitResult:
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
         """(N, S) states of the best parameters on `recording` (default: the first fitted one; a
         fitted recording with its own local values and initial states), with the fitted sensor
-        offsets added to the measured states (as the sensors read them)."""
+        offsets added to the measured states (as the sensors read them; a model with an output
+        equation: the states alone, its outputs are `simulate_outputs`)."""
         rec = recording or self.recording
         target = self.target([rec])
         x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
         sim = _simulate_on_grid(x, target, 0)
         adj = target.adjustments(x, 0)
-        if adj is not None and adj.offset is not None:
+        if adj is not None and adj.offset is not None and not self.model.has_output_equation:
             for j, o in enumerate(self.model.output_index):
                 sim[:, o] += float(adj.offset[j])
         return sim
+
+    def simulate_outputs(self, recording: Recording | None = None) -> np.ndarray:
+        """(N, C) the compared outputs (`model.outputs`, in order) of the best parameters on
+        `recording` (default: the first fitted one), as the sensors read them: through the
+        model's output equation, with the fitted offsets."""
+        x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
+        return _outputs_on_grid(x, self.target(None if recording is None else [recording]), 0)
+
+    def validate(self, recordings, initial: str = "measured", skip: int = 0) -> list:
+        """The held-out figures of this fit on `recordings` (`dcjax.analysis.held_out.validate`):
+        per recording and output rmse, nrmse, fit %, R^2, mae and the residual tests. `initial`:
+        "measured" (each state as its spec says: a recorded state's first sample) or "fitted"
+        (the fit's fitted initial states); `skip`: samples left out at the start."""
+        from ..analysis.held_out import validate  # lazy: the analysis a user asks for
+
+        return validate(self, recordings, initial=initial, skip=skip)
 
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the

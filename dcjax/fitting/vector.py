@@ -70,13 +70,16 @@ def search_vector(model: Model, recordings: list[Recording], params: Parameters,
         offset_cols=tuple(tuple(cols[f"offset_{c}"][r] for c in observation.offsets) for r in range(n_rec)) if observation.offsets else (),
         delay_inputs=tuple(model.inputs.index(u) for u in observation.delays),
         delay_cols=tuple(tuple(cols[f"delay_{u}"][r] for u in observation.delays) for r in range(n_rec)) if observation.delays else (),
-        measured_start=measured_start(observation),
+        measured_start=measured_start(observation, model),
     )
     return layout, Parameters(entries)
 
 
-def measured_start(observation: Observation) -> tuple[int, ...]:
-    """The offset channels whose state starts at its measured first sample (less the offset)."""
+def measured_start(observation: Observation, model: Model) -> tuple[int, ...]:
+    """The offset channels whose state starts at its measured first sample (less the offset); a
+    model with an output equation has none (its outputs are not its states)."""
+    if model.has_output_equation:
+        return ()
     return tuple(j for j, c in enumerate(observation.offsets) if observation.initial.get(c, "measured") == "measured")
 
 
@@ -97,7 +100,7 @@ def layout_of(names: tuple[str, ...], model: Model, observation: Observation, n_
         offset_cols=tuple(tuple(col(f"offset_{c}", r) for c in observation.offsets) for r in range(n_rec)) if observation.offsets else (),
         delay_inputs=tuple(model.inputs.index(u) for u in observation.delays),
         delay_cols=tuple(tuple(col(f"delay_{u}", r) for u in observation.delays) for r in range(n_rec)) if observation.delays else (),
-        measured_start=measured_start(observation),
+        measured_start=measured_start(observation, model),
     )
 
 

@@ -18,6 +18,10 @@ A model is a small `eqx.Module` (diffrax/optimistix style). The built-in `DC` (p
   with a current limit), or None; or a `clamp(y, limit)` of its own (the PMSM's current vector);
 - `coefficients(p)`: hoisted per-simulation quantities (1/La, Ra/La, ...) from the parameter dict;
 - `vector_field(c, u, y)`: dy/dt as a tuple, from the coefficients, the inputs and the states;
+- optionally an output equation: `outputs` (the output channels, which need not be states) and
+  `output(c, u, y)` returning one value per output (a sensor that reads |b x1|, saturates, or
+  reads a torque kt i); without it the outputs are the `measured` states. A recording's column
+  named after a state still gives that state's initial value (others start at 0 or are fitted);
 - optionally `steady_state(p, channels)`: the model's stationary relations (dy/dt = 0) as
   predicted channel values, used by `dcjax.analysis.validation.stationary_check` (paper eq. 25–26);
 - optionally `regression(y, dy, u)`: the state equations written linear in the parameters, for
@@ -105,11 +109,43 @@ class Model(eqx.Module):
 
     @property
     def outputs(self) -> tuple[str, ...]:
-        """The measured states (channels the objective compares)."""
+        """The channels the objective compares: the measured states by default; a model with an
+        output equation declares its outputs instead (`outputs: ClassVar = ("v",)`, with
+        `output`), and `measuring` chooses among them."""
         return tuple(self.states if self.measured is None else self.measured)
+
+    def output(self, c: Any, u: tuple[Array, ...], y: tuple[Array, ...]) -> tuple[Array, ...]:
+        """The output equation y_out = g(c, u, x), one entry per channel of `output_channels`
+        (the argument order of `vector_field`; `u`: the inputs at the sample). Default: the
+        states named by the outputs (no equation)."""
+        return tuple(y[self.states.index(s)] for s in self.output_channels)
+
+    @property
+    def output_channels(self) -> tuple[str, ...]:
+        """Every channel `output` returns: the model class's declared outputs (a `measuring`
+        variant compares a subset of them)."""
+        return declared_outputs(type(self).measuring_base or type(self))
+
+    @property
+    def has_output_equation(self) -> bool:
+        """Whether the model defines `output` (its outputs need not be states)."""
+        return type(self).output is not Model.output
+
+    def compared(self, c: Any, u: tuple[Array, ...], y: tuple[Array, ...]) -> tuple[Array, ...]:
+        """The outputs the objective compares (`outputs`, in order) at one sample: the states
+        themselves where the model has no output equation, else its `output`'s entries."""
+        if not self.has_output_equation:
+            return tuple(y[k] for k in self.output_index)
+        out, names = self.output(c, u, y), self.output_channels
+        if len(out) != len(names):
+            raise ModelError(f"model {self.name}: output() returned {len(out)} value(s) for the {len(names)} outputs {', '.join(names)}")
+        return tuple(out[names.index(c_)] for c_ in self.outputs)
 
     @property
     def output_index(self) -> tuple[int, ...]:
+        """The states the outputs are (a model without an output equation)."""
+        if self.has_output_equation:
+            raise ModelError(f"model {self.name} has an output equation: its outputs {', '.join(self.outputs)} are not states")
         return tuple(self.states.index(s) for s in self.outputs)
 
     @property
@@ -122,12 +158,17 @@ class Model(eqx.Module):
         the DC motor with its speed logged alone), as a subclass with `measured = channels` would
         (`class DCSpeed(dcjax.DC): measured = ("omega",)`); one class per model class and channels."""
         channels = (channels,) if isinstance(channels, str) else tuple(channels)
-        bad = [c for c in channels if c not in self.states]
+        pool, kind = (self.output_channels, "output") if self.has_output_equation else (self.states, "state")
+        bad = [c for c in channels if c not in pool]
         if not channels or bad or len(set(channels)) != len(channels):
             why = (
-                f"{', '.join(map(repr, bad))} is not a state" if bad else "name each state once" if channels else "name at least one state"
+                f"{', '.join(map(repr, bad))} is not a{'n' if kind == 'output' else ''} {kind}"
+                if bad
+                else f"name each {kind} once"
+                if channels
+                else f"name at least one {kind}"
             )
-            raise ModelError(f"measure: {why}; model {self.name} has states {', '.join(self.states)}")
+            raise ModelError(f"measure: {why}; model {self.name} has {kind}s {', '.join(pool)}")
         cls = measuring_class(type(self).measuring_base or type(self), channels)
         if type(self) is cls:
             return self
@@ -241,14 +282,24 @@ class Model(eqx.Module):
         return y[:k] + (jnp.clip(y[k], -limit, limit),) + y[k + 1 :]
 
 
+def declared_outputs(cls: type[Model]) -> tuple[str, ...]:
+    """The outputs a model class declares (`outputs = (...)`), else its measured states."""
+    declared: Any = cls.outputs  # the base class's property, or a subclass's tuple
+    if isinstance(declared, property):
+        return tuple(cls.states if cls.measured is None else cls.measured)
+    return tuple(declared)
+
+
 @functools.cache
 def measuring_class(base: type[Model], channels: tuple[str, ...]) -> type[Model]:
     """`base` with `measured = channels` (`Model.measuring`), made once per pair so that a fit's
     compiled programs, keyed by the model's class, are reused; named and placed as `base`
     (`measuring_base` says where a saved result finds it)."""
-    if tuple(base.states if base.measured is None else base.measured) == channels:
+    if declared_outputs(base) == channels:
         return base
     attrs = {"measured": channels, "measuring_base": base, "__module__": base.__module__, "__qualname__": base.__qualname__}
+    if not isinstance(base.outputs, property):  # declared outputs (an output equation): the variant's own
+        attrs["outputs"] = channels
     meta: Any = type(base)  # equinox's metaclass: the subclass is a module (a pytree) like its base
     return meta(base.__name__, (base,), attrs)
 

@@ -4,7 +4,7 @@ loop on a GPU, the normalized objective (eq. 24, 27) and the adaptive diffrax re
 
 from .diffrax_reference import reference_simulate, simulation_error
 from .joint import stacked_residuals
-from .objectives import objective, population_objective, residuals, simulate
+from .objectives import objective, population_objective, residuals, simulate, simulate_outputs
 from .problem import Problem, make_problem
 
 __all__ = [
@@ -15,6 +15,7 @@ __all__ = [
     "reference_simulate",
     "residuals",
     "simulate",
+    "simulate_outputs",
     "simulation_error",
     "stacked_residuals",
 ]

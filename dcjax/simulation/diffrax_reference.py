@@ -13,7 +13,7 @@ from jaxtyping import Array, Float
 
 from .adjustments import Adjustments
 from .integrate import prepare
-from .objectives import simulate
+from .objectives import outputs_of, simulate
 from .problem import Problem
 
 
@@ -71,7 +71,7 @@ def simulation_error(params, problem: Problem, reference: Float[Array, "n s"], a
     """max over the measured channels of max_k |y_sim - y_ref| / max|y_measured| (a sensor
     offset adds to both alike)."""
 
-    sim = simulate(params, problem, adjustments)
-    outs = problem.model.output_index
+    sim = outputs_of(params, problem, simulate(params, problem, adjustments))
+    ref = outputs_of(params, problem, jnp.asarray(reference))
     peak = jnp.max(jnp.abs(problem.y_meas), axis=0)
-    return float(max(jnp.max(jnp.abs(sim[:, o] - reference[:, o])) / peak[j] for j, o in enumerate(outs)))
+    return float(jnp.max(jnp.max(jnp.abs(sim - ref), axis=-2) / peak))

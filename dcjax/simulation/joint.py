@@ -19,7 +19,7 @@ from jaxtyping import Array, Float
 from ..errors import ConfigError
 from ..models.base import DiscreteModel
 from .adjustments import Adjustments
-from .objectives import objective, residuals, simulate
+from .objectives import objective, residuals, simulate, simulate_outputs
 from .problem import Problem
 
 Columns = tuple[tuple[int, ...], ...]  # (R, k): per recording, a column of the search vector per item
@@ -75,9 +75,9 @@ class Layout(eqx.Module):
         offset = delay = None
         y0 = jnp.broadcast_to(problem.y0, (*x.shape[:-1], problem.y0.shape[0]))
         if self.measured_start:
-            outs = problem.model.output_index
+            model = problem.model
             for j in self.measured_start:
-                s = outs[self.offset_channels[j]]
+                s = model.states.index(model.outputs[self.offset_channels[j]])
                 y0 = y0.at[..., s].add(-x[..., self.offset_cols[r][j]])
         if self.y0_states:
             y0 = y0.at[..., np.asarray(self.y0_states)].set(x[..., np.asarray(self.y0_cols[r])])
@@ -320,6 +320,12 @@ class JointProblem(eqx.Module):
         """Recording r's states at its samples, with its parameters and adjustments."""
 
         return simulate(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
+
+    def simulate_outputs(self, x: Float[Array, " D"], r: int = 0):
+        """Recording r's compared outputs at its samples (`dcjax.simulate_outputs`: through the
+        output equation, with the fitted sensor offsets)."""
+
+        return simulate_outputs(self.model_x(x, r), self.problems[r], self.adjustments(x, r))
 
 
 def over_stack(fn, layout: Layout, stacked: Problem, x):

@@ -19,7 +19,7 @@ from jaxtyping import Array, Float
 from ..compiling import filter_jit
 from .joint import JointProblem
 from .losses import Loss
-from .objectives import simulate
+from .objectives import simulate_outputs
 from .problem import Problem
 
 
@@ -40,15 +40,9 @@ class NoiseModel(eqx.Module):
 
 def channel_errors(params, problem: Problem, adj) -> Float[Array, "C n"]:
     """a = e * norm of every measured channel and sample (e for the default SSE), offsets added."""
-    traj = simulate(params, problem, adj)
+    sim = simulate_outputs(params, problem, adj)
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
-    off = None if adj is None else adj.offset
-    return jnp.stack(
-        [
-            (traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]) * norm[j]
-            for j, o in enumerate(problem.model.output_index)
-        ]
-    )
+    return jnp.stack([(sim[..., j] - problem.y_meas[:, j]) * norm[j] for j in range(sim.shape[-1])])
 
 
 def _channel_rho(params, problem: Problem, adj) -> Float[Array, " C"]:

@@ -10,12 +10,18 @@ from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
 from .losses import SSE
 from .problem import Problem, make_problem
 
-__all__ = ["Problem", "make_problem", "simulate", "objective", "residuals", "population_objective"]
+__all__ = ["Problem", "make_problem", "simulate", "simulate_outputs", "objective", "residuals", "population_objective"]
 
 
 def _plain(problem: Problem, adjustments: Adjustments | None) -> bool:
     """The paper's case: eq. 24/27 (SSE over peak-normalised channels), nothing adjusted."""
-    return adjustments is None and type(problem.loss) is SSE and problem.loss.normalize == "peak" and problem.mask is None
+    return (
+        adjustments is None
+        and type(problem.loss) is SSE
+        and problem.loss.normalize == "peak"
+        and problem.mask is None
+        and not problem.model.has_output_equation
+    )
 
 
 def simulate(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch n s"]:
@@ -109,30 +115,68 @@ def _scored_scan(x, problem: Problem, adjustments: Adjustments | None):
     c, _ = prepare(x, problem)
     adj = adjustments if adjustments is not None else Adjustments()
     y = initial_state(problem, x.shape[:-1], adj.y0)
-    outs, loss = problem.model.output_index, problem.loss
+    model, loss = problem.model, problem.loss
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
-    offset = [None if adj.offset is None else adj.offset[..., j] for j in range(len(outs))]
+    offset = [None if adj.offset is None else adj.offset[..., j] for j in range(len(model.outputs))]
 
-    def misfit(acc, y, meas, weight):
-        for j, o in enumerate(outs):
-            e = y[o] - meas[j] if offset[j] is None else y[o] + offset[j] - meas[j]
+    def misfit(acc, y, u, meas, weight):
+        for j, out in enumerate(model.compared(c, u, y)):
+            off = offset[j]
+            e = out - meas[j] if off is None else out + off - meas[j]
             term = loss.term(e, problem.scale[j], norm[j])
             acc = acc + (term if weight is None else weight * term)
         return acc
 
     mask = problem.mask
     steady = problem.steady_inputs()
+    u = sample_inputs(problem) if model.has_output_equation else None  # an output equation reads the inputs at the sample
 
     def body(carry, xs):
         y, acc = carry
-        lengths, inputs, meas, weight = xs
+        lengths, inputs, meas, weight, u_k = xs
         y = advance_pieces(c, problem, y, lengths, inputs, steady)
-        return (y, misfit(acc, y, meas, weight)), None
+        return (y, misfit(acc, y, _row(u_k), meas, weight)), None
 
-    acc = misfit(0.0, y, problem.y_meas[0], None)
-    xs = (*input_pieces(problem, adj), problem.y_meas[1:], None if mask is None else mask[1:])
+    acc = misfit(0.0, y, _row(None if u is None else u[0]), problem.y_meas[0], None)
+    xs = (*input_pieces(problem, adj), problem.y_meas[1:], None if mask is None else mask[1:], None if u is None else u[1:])
     (_, acc), _ = jax.lax.scan(body, (y, acc), xs, unroll=problem.unroll)
     return acc
+
+
+def _row(u_k) -> tuple:
+    return () if u_k is None else tuple(u_k[j] for j in range(u_k.shape[-1]))
+
+
+def sample_inputs(problem: Problem) -> Float[Array, "n m"]:
+    """The inputs at every sample as an output equation reads them: the recording's first sample,
+    then each interval's end value (eq. 29's; an input held over the interval, and a
+    discrete-time model's, its held value; no input delay)."""
+    return jnp.concatenate([problem.u_start[:1], problem.u_end], axis=0)
+
+
+def outputs_of(params, problem: Problem, states: Float[Array, "*batch n s"]) -> Float[Array, "*batch n c"]:
+    """The compared outputs (`Model.compared`, in `model.outputs` order) of a state trajectory
+    `states` simulated at `params`, without sensor offsets."""
+    model = problem.model
+    if not model.has_output_equation:
+        return jnp.stack([states[..., o] for o in model.output_index], axis=-1)
+    c, _ = prepare(params, problem)
+    m, n_states = problem.u_start.shape[1], len(model.states)
+
+    def at(u_k, y_k):
+        return jnp.stack(model.compared(c, tuple(u_k[j] for j in range(m)), tuple(y_k[..., s] for s in range(n_states))), axis=-1)
+
+    out = jax.vmap(at)(sample_inputs(problem), jnp.moveaxis(states, -2, 0))  # (N, *batch, C)
+    return jnp.moveaxis(out, 0, -2)
+
+
+def simulate_outputs(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch n c"]:
+    """The model's compared outputs (`model.outputs`) at the sample instants, as the sensors read
+    them (with the fitted offsets of `adjustments`): the states through the output equation, or
+    the measured states themselves."""
+    out = outputs_of(params, problem, simulate(params, problem, adjustments))
+    off = None if adjustments is None else adjustments.offset
+    return out if off is None else out + off[..., None, :]
 
 
 def population_objective(x: Float[Array, "P D"], problem: Problem) -> Float[Array, " P"]:
@@ -144,13 +188,11 @@ def residuals(params, problem: Problem, adjustments: Adjustments | None = None) 
     """Residual vector r with sum(r**2) == objective: sqrt(w_c/N)(y_c - y*_c)/max|y*_c| for every
     sample of the first channel, then the next channel (another loss: sign(a) sqrt(w_c/N rho(a)),
     `Loss.residual`). Used by the Levenberg–Marquardt polish and the uncertainty analysis."""
-    traj = simulate(params, problem, adjustments)
-    outs, loss = problem.model.output_index, problem.loss
+    sim = simulate_outputs(params, problem, adjustments)
+    loss = problem.loss
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)
-    off = None if adjustments is None else adjustments.offset
     out = []
-    for j, o in enumerate(outs):
-        e = traj[..., o] - problem.y_meas[:, j] if off is None else traj[..., o] + off[..., j, None] - problem.y_meas[:, j]
-        r = loss.residual(e, problem.scale[j], norm[j])
+    for j in range(sim.shape[-1]):
+        r = loss.residual(sim[..., j] - problem.y_meas[:, j], problem.scale[j], norm[j])
         out.append(r if problem.mask is None else problem.mask * r)
     return jnp.concatenate(out, axis=-1)

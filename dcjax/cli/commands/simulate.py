@@ -25,6 +25,10 @@ def run(args) -> int:
     m = res.model
     cols = ["t", *m.inputs, *(f"{c}_meas" for c in m.outputs), *(f"{s}_sim" for s in m.states)]
     table = np.column_stack([rec.t, *(rec[c] for c in m.inputs), *(rec[c] for c in m.outputs), sim])
+    if m.has_output_equation:  # the outputs as the sensors read them, beside the states
+        outs = [j for j, c in enumerate(m.outputs) if c not in m.states]
+        cols += [f"{m.outputs[j]}_sim" for j in outs]
+        table = np.column_stack([table, res.simulate_outputs(rec)[:, outs]])
     with output_folder(args, lambda f: [f / f"{stem}.csv"], f"an earlier {stem}.csv") as folder:
         out = announce(folder)
         path = write_atomic(

@@ -3,6 +3,7 @@ from the independent NumPy reference (`tests/reference.py`: the spring drive's s
 own sensor functions), through the command line and the Python API."""
 
 import functools
+from typing import ClassVar
 
 import numpy as np
 import pytest
@@ -80,3 +81,15 @@ def test_measure_chooses_among_the_outputs(tmp_path):
     assert max(abs(res.best_values[n] / v - 1) for n, v in TRUTH.items()) < 1e-6
     with pytest.raises(ValueError, match=r"^measure: 'w' is not an output; model TwoSensorDrive has outputs pulses, w_sat$"):
         TwoSensorDrive().measuring("w")
+
+    class NoEquation(dcjax.Model):  # outputs declared, their equation forgotten: one line, at the first use
+        names: ClassVar[tuple[str, ...]] = ("a",)
+        states: ClassVar[tuple[str, ...]] = ("x",)
+        inputs: ClassVar[tuple[str, ...]] = ("u",)
+        outputs: ClassVar[tuple[str, ...]] = ("y",)
+
+        def vector_field(self, c, u, y):
+            return (-c["a"] * y[0] + u[0],)
+
+    with pytest.raises(ValueError, match=r"^model NoEquation: output\(s\) y are not states; define output\(c, u, y\) for them$"):
+        dcjax.make_problem(dcjax.Recording(t=t[:5], u=u[:5], y=np.ones(5)), model=NoEquation()).model.compared({}, (), (0.0,))

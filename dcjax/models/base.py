@@ -146,6 +146,9 @@ class Model(eqx.Module):
         """The states the outputs are (a model without an output equation)."""
         if self.has_output_equation:
             raise ModelError(f"model {self.name} has an output equation: its outputs {', '.join(self.outputs)} are not states")
+        bad = [s for s in self.outputs if s not in self.states]
+        if bad:
+            raise ModelError(f"model {self.name}: output(s) {', '.join(bad)} are not states; define output(c, u, y) for them")
         return tuple(self.states.index(s) for s in self.outputs)
 
     @property

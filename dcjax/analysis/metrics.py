@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from .report import fit_percent
+
 LAGS = 25  # lags of the residual tests (MATLAB's `resid` default)
 Z99 = 2.58  # the 99 % band's normal quantile
 
@@ -29,7 +31,7 @@ def channel_metrics(measured, simulated) -> dict[str, float]:
     return {
         "rmse": rmse,
         "nrmse": rmse / span if span > 0 else math.nan,
-        "fit_percent": float(100 * (1 - math.sqrt(float(np.sum(e**2)) / spread))) if spread > 0 else math.nan,
+        "fit_percent": fit_percent(y, s),
         "r2": float(1 - np.sum(e**2) / spread) if spread > 0 else math.nan,
         "mae": float(np.mean(np.abs(e))),
     }

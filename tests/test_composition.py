@@ -103,7 +103,9 @@ def test_3_validate_and_simulate_read_a_file_in_the_models_layout_after_a_logger
     assert "SD2" in (tmp_path / "v" / "validation.json").read_text()
     assert cli.main(["simulate", res, str(tmp_path / "logger.csv"), "--out", str(tmp_path / "s")]) == 0  # the fit's own layout: its reading
     sim = np.genfromtxt(next((tmp_path / "s").glob("*.csv")), delimiter=",", names=True)
-    np.testing.assert_allclose(sim["t"], sd1.t, rtol=0, atol=1e-12)  # ms converted as in the fit
+    np.testing.assert_allclose(sim["t"], sd1.t * 1e3, rtol=1e-12, atol=1e-9)  # read in ms as in the fit, written back in ms
+    np.testing.assert_allclose(sim["omega_meas"], sd1.omega * 30 / np.pi, rtol=1e-12)  # and rpm: the file's own units
+    assert "columns in the file's own units: i_a mA, omega rpm, t ms" in capsys.readouterr().out
 
 
 def test_4_design_reads_every_input_and_each_range():

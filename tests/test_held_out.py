@@ -35,7 +35,9 @@ def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     b, t, u = record(tmp_path / "b.csv", 2)
     model = f"{MODELS}:PulleyDrive"
     bounds = "R=0.5:8,k=0.1:2,J=0.001:0.1,K=0.2:10,y0_th=-1:1"
-    assert cli.main(["fit", a, "--model", model, "--bound", bounds, *FIT, "--out", str(tmp_path / "f")]) == 0
+    held = ["--validate", b, "--validate-initial", "fitted", "--validate-skip", "10"]  # fit and validate in one command
+    assert cli.main(["fit", a, "--model", model, "--bound", bounds, *FIT, *held, "--out", str(tmp_path / "f")]) == 0
+    assert "held-out validation:" in capsys.readouterr().out
     res = dcjax.load_result(tmp_path / "f" / "result.json", model=model)
     assert abs(res.best_values["y0_th"] - 0.3) < 0.01
     args = ["validate", str(tmp_path / "f" / "result.json"), b, "--model", model, "--skip", "10"]
@@ -52,13 +54,24 @@ def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     assert got["rmse"] == pytest.approx(rmse, rel=1e-6)
     assert got["mae"] == pytest.approx(float(np.mean(np.abs(y[10:] - sim[10:]))), rel=1e-6)
     assert got["whiteness"] <= 0.1 and got["input_correlation"]["u"] <= 0.1, got  # sensor noise alone: white, not input-correlated
+    assert json.loads((tmp_path / "f" / "validation.json").read_text())[0]["channels"]["y"] == got  # fit --validate: the same figures
     # the measured start (the angle's spec: 0, not recorded) is worse: the fitted start is what the records share
     assert cli.main([*args, "--out", str(tmp_path / "m")]) == 0
     measured = json.loads((tmp_path / "m" / "validation.json").read_text())[0]["channels"]["y"]
     assert measured["rmse"] > 1.5 * got["rmse"], (measured["rmse"], got["rmse"])
     assert "fit %" in capsys.readouterr().out
-    assert cli.main([*args, "--initial", "estimate", "--out", str(tmp_path / "e")]) == 2
-    assert "--initial must be one of measured, fitted, got 'estimate'" in capsys.readouterr().err
+    # estimated on the record with the parameters fixed (findstates): the start the data hold, on all or the first samples
+    assert cli.main([*args, "--initial", "estimate", "--out", str(tmp_path / "e")]) == 0
+    est = json.loads((tmp_path / "e" / "validation.json").read_text())[0]
+    assert est["initial"] == "estimate" and abs(est["start"]["th"] - START[2]) < 0.01, est["start"]
+    assert est["channels"]["y"]["rmse"] <= got["rmse"] * 1.001 and (tmp_path / "e" / est["residual_plot"]).is_file()
+    assert cli.main([*args, "--initial", "th=estimate:200,i=measured", "--out", str(tmp_path / "k")]) == 0
+    first = json.loads((tmp_path / "k" / "validation.json").read_text())[0]
+    assert abs(first["start"]["th"] - START[2]) < 0.02 and first["start"]["i"] == 0.0, first["start"]
+    capsys.readouterr()
+    assert cli.main([*args, "--initial", "th=guess", "--out", str(tmp_path / "g")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "initial: th 'guess': give measured, fitted, estimate, estimate:K" in err, err
 
 
 def test_the_residual_tests_tell_the_right_model_from_a_wrong_order(tmp_path):

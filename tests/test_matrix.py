@@ -415,7 +415,8 @@ def test_nd_autos_reference_carries_every_feature(model_key, lengths_key, featur
 def test_a_result_simulates_on_a_power_of_two_grid_to_the_same_bits(model_key):
     """`FitResult.simulate` pads the problem to `grid_length` (a folder's summary compiles a few
     programs) and cuts the padding off: the states are those of the unpadded problem, bit for bit."""
-    from dcjax.fitting.result import _simulate, _simulate_on_grid
+    from dcjax.fitting.simulated import _simulate
+    from dcjax.fitting.simulated import simulate_on_grid as _simulate_on_grid
     from dcjax.simulation.joint import grid_length, joint_problem
 
     assert [grid_length(n) for n in (1, 64, 65, 240, 256, 257)] == [64, 64, 128, 256, 256, 512]

@@ -66,6 +66,35 @@ def test_a_fit_through_the_cli_recovers_the_four_parameters(name, tmp_path, caps
     err = {n: abs(res.best_values[n] / v - 1) for n, v in TRUTH.items()}
     assert max(err.values()) < 0.02, err
     assert (tmp_path / "out" / "fit.png").is_file() and "neither measured nor given" in capsys.readouterr().out  # the states start at 0
+    if name != "PulleyDrive":
+        return
+    # the fit simulates a file of the inputs alone (time in ms), labelled and written back in the file's units
+    t, u, _ = states(seed=7)
+    np.savetxt(tmp_path / "inputs.csv", np.column_stack([t * 1e3, u]), delimiter=",", header="time_ms,u", comments="")
+    sim_args = ["simulate", str(tmp_path / "out" / "result.json"), str(tmp_path / "inputs.csv"), "--model", f"{MODELS}:{name}"]
+    assert cli.main([*sim_args, "--columns", "t=time_ms", "--units", "t=ms", "--out", str(tmp_path / "s")]) == 0
+    assert "holds no output (y)" in capsys.readouterr().out
+    got = np.genfromtxt(tmp_path / "s" / "simulated_inputs.csv", delimiter=",", names=True)
+    assert got.dtype.names == ("t", "u", "i_sim", "w_sim", "th_sim", "y_sim")
+    p = {n: res.best_values[n] for n in TRUTH}
+    want = ref.simulate(ref.spring_drive_field, p, t, u[:, None], [0.0, 0.0, 0.0], substeps=8, held=(0,))
+    np.testing.assert_allclose(got["t"], t * 1e3, rtol=1e-12)
+    assert np.max(np.abs(got["y_sim"] - ref.abs_speed_sensor(want))) <= 1e-6 * np.max(np.abs(want[:, 1]))
+    labelled = res.simulation(dcjax.Recording(t=t, u=u, name="new"))
+    assert labelled.name == "new simulated" and list(labelled.channels) == ["u", "i", "w", "th", "y"]
+    np.testing.assert_allclose(labelled["y"], got["y_sim"], rtol=1e-12, atol=1e-12)
+
+
+def test_simulate_takes_a_recording_of_the_inputs_alone():
+    """`dcjax.simulate(params, recording, model=...)`: the model's default problem (RK4, one step
+    per sample, eq. 29) on a recording without its outputs, as the NumPy reference integrates it."""
+    t, u, _ = states(n=400)
+    p = {"Ra": 2.5, "La": 0.08, "cm": 0.2, "J": 3e-4, "Tla": 0.01, "Tlb": 1e-4, "Tlc": 1e-7}
+    got = np.asarray(dcjax.simulate(p, dcjax.Recording(t=t, u_a=12.0 + u)))
+    want = ref.simulate(ref.dc_field, p, t, (12.0 + u)[:, None], [0.0, 0.0], substeps=1)
+    assert got.shape == (len(t), 2) and np.max(np.abs(got - want) / np.max(np.abs(want), axis=0)) <= 1e-12
+    with pytest.raises(ValueError, match=r"^model dc needs channel\(s\) u_a; the recording has y "):
+        dcjax.simulate(p, dcjax.Recording(t=t, y=u))
 
 
 def test_measure_chooses_among_the_outputs(tmp_path):

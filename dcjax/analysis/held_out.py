@@ -3,15 +3,19 @@ per recording and output the figures of merit and the residual tests of `dcjax.a
 and several models side by side with their information criteria (`compare`).
 
 The protocol: each record is simulated from its first sample with the fit's parameters (its
-local values, offsets and delays: the first fitted recording's) and an initial state that is
-either the record's own (`initial="measured"`: a recorded state's first sample, as the fit's
-specs say) or the fit's (`"fitted"`: its fitted initial states, for records that share their
-start); `skip` samples at the start are left out of every figure (a benchmark's initialisation
-window). The residual tests assume an output-error model: with sensor noise alone the residual
+local values, offsets and delays: the first fitted recording's) and an initial state per state
+(`initial`): the record's own (`"measured"`: a recorded state's first sample, as the fit's specs
+say), the fit's (`"fitted"`: its fitted initial state, for records that share their start),
+estimated on the record with the parameters fixed (`"estimate"` over the whole record,
+`"estimate:K"` over its first K samples: MATLAB's `findstates`), or a number. A bare mode applies
+to every state (`"fitted"`: to every fitted one); `"x1=estimate,y=measured"` (or a dict) sets
+them one by one. `skip` samples at the start are left out of every figure (a benchmark's
+initialisation window). The residual tests assume an output-error model: with sensor noise alone the residual
 is white and uncorrelated with the inputs; with process noise only the input test applies."""
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Sequence
 
 import equinox as eqx
@@ -22,15 +26,18 @@ from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..simulation.joint import JointProblem
+from .initial_states import estimate_states, released, with_start
 from .metrics import channel_metrics, criteria, input_correlation, whiteness
 
-INITIAL_MODES = ("measured", "fitted")
+INITIAL_MODES = ("measured", "fitted", "estimate")
+Mode = str | float | tuple[str, int | None]  # "measured" | "fitted" | ("estimate", samples or None) | a value
 
 
 @dataclasses.dataclass(frozen=True)
 class Validation:
     """One record's held-out figures: `of` (the fit's objective on it), and per output channel
-    rmse, nrmse, fit_percent, r2, mae, `whiteness` and `input_correlation` (input -> fraction)."""
+    rmse, nrmse, fit_percent, r2, mae, `whiteness` and `input_correlation` (input -> fraction);
+    `start`: the initial state it was simulated from (state -> value)."""
 
     recording: str
     initial: str
@@ -38,12 +45,13 @@ class Validation:
     samples: int
     of: float
     channels: dict[str, dict]
+    start: dict[str, float]
     residuals: np.ndarray = dataclasses.field(repr=False, compare=False)  # (samples, C) measured - simulated, after `skip`
 
     def to_dict(self) -> dict:
         """The keys validation.json writes for this record."""
         return {"recording": self.recording, "initial": self.initial, "skip": self.skip, "samples": self.samples, "of": self.of,
-                "channels": self.channels}  # fmt: skip
+                "start": self.start, "channels": self.channels}  # fmt: skip
 
 
 @filter_jit
@@ -80,30 +88,109 @@ def held_out_target(result, recording: Recording, initial: dict[str, float]) -> 
     return eqx.tree_at(lambda t: t.problems, target, (eqx.tree_at(lambda q: q.y0, p, y0), *target.problems[1:]))
 
 
-def _initial(result, mode: str) -> dict[str, float]:
-    if mode not in INITIAL_MODES:
-        raise ConfigError(f"initial must be one of {', '.join(INITIAL_MODES)}, got {mode!r}")
-    if mode == "measured":
-        return {}
+def _mode(text, state: str) -> Mode:
+    """A state's mode: "measured", "fitted", ("estimate", K | None) or a number."""
+    if isinstance(text, (int, float, np.number)) and not isinstance(text, bool):
+        return float(text)
+    t = str(text).strip()
+    if t in ("measured", "fitted", "estimate"):
+        return t if t != "estimate" else ("estimate", None)
+    if t.startswith("estimate:"):
+        k = t.split(":", 1)[1]
+        if k.isdigit() and int(k) >= 2:
+            return ("estimate", int(k))
+    try:
+        v = float(t)
+    except ValueError:
+        v = float("nan")
+    if math.isfinite(v):
+        return v
+    raise ConfigError(
+        f"initial: {state or 'mode'} {text!r}: give measured, fitted, estimate, estimate:K (K >= 2 samples) or a finite number"
+    )
+
+
+def initial_modes(result, initial) -> dict[str, Mode]:
+    """State -> mode of `initial` (module docstring): a bare mode for every state, or
+    `"STATE=MODE,..."` / a dict for some (the others measured); one-line errors."""
+    states = result.model.states
+    if isinstance(initial, str) and "=" not in initial:
+        mode = _mode(initial, "")
+        if mode == "fitted":
+            starts = fitted_starts(result)
+            if not starts:
+                raise ConfigError("initial: fitted, but the fit fitted no initial state (fit with --initial STATE=fit)")
+            return dict.fromkeys(starts, "fitted")
+        return {} if mode == "measured" else dict.fromkeys(states, mode)
+    if isinstance(initial, str):
+        pairs = {}
+        for item in initial.split(","):
+            key, sep, value = item.partition("=")
+            if not sep or not key.strip():
+                raise ConfigError(f"initial: {item!r} is not STATE=MODE (e.g. x1=estimate,y=measured)")
+            pairs[key.strip()] = value
+        initial = pairs
+    if not isinstance(initial, dict):
+        raise ConfigError(f"initial must be a mode or STATE=MODE pairs (a str or a dict), got {initial!r}")
+    bad = [s for s in initial if s not in states]
+    if bad:
+        raise ConfigError(f"initial: unknown state(s) {', '.join(map(repr, bad))}; the model's states are {', '.join(states)}")
+    modes = {s: _mode(v, s) for s, v in initial.items()}
+    fitted = fitted_starts(result)
+    missing = [s for s, m in modes.items() if m == "fitted" and s not in fitted]
+    if missing:
+        raise ConfigError(
+            f"initial: {', '.join(missing)}=fitted, but the fit did not fit its initial state (fitted: {', '.join(fitted) or 'none'})"
+        )
+    return {s: m for s, m in modes.items() if m != "measured"}
+
+
+def _mode_text(initial) -> str:
+    return initial if isinstance(initial, str) else ",".join(f"{s}={v}" for s, v in initial.items())
+
+
+def held_out_start(result, recording: Recording, modes: dict[str, Mode], x) -> JointProblem:
+    """The target of `recording` with its initial state as `modes` say (`initial_modes`)."""
     starts = fitted_starts(result)
-    if not starts:
-        raise ConfigError("initial: fitted, but the fit fitted no initial state (fit with --initial STATE=fit)")
-    return starts
+    fixed: dict[str, float] = {}
+    spans: dict[str, int | None] = {}
+    for s, m in modes.items():
+        if isinstance(m, tuple):
+            spans[s] = m[1]
+        elif isinstance(m, float):
+            fixed[s] = m
+        elif m == "fitted":
+            fixed[s] = starts[s]
+    target = held_out_target(result, recording, fixed)
+    if not spans:
+        return target
+    if len(set(spans.values())) > 1:
+        raise ConfigError("initial: estimate the states over one span (estimate, or estimate:K with the same K)")
+    k, est = next(iter(spans.values())), tuple(spans)
+    if k is not None and k > len(recording):
+        raise ConfigError(f"{recording._where()}initial: estimate:{k} but the recording has {len(recording)} samples")
+    idx = tuple(result.model.states.index(s) for s in est)
+    z, _, converged = estimate_states(target, x, idx, k)
+    if not converged:
+        warnings.warn(f"{recording.name}: the estimate of the initial state(s) {', '.join(est)} did not converge", stacklevel=3)
+    return with_start(released(target, idx), z, np.asarray(idx))
 
 
-def validate(result, recordings: Sequence[Recording], initial: str = "measured", skip: int = 0) -> list[Validation]:
+def validate(result, recordings: Sequence[Recording], initial="measured", skip: int = 0) -> list[Validation]:
     """`Validation` of `result` on each of `recordings` (module docstring)."""
     if not isinstance(skip, (int, np.integer)) or isinstance(skip, bool) or skip < 0:
         raise ConfigError(f"skip must be a non-negative whole number of samples, got {skip!r}")
-    start = _initial(result, initial)
+    modes = initial_modes(result, initial)
     m = result.model
     x = jnp.asarray([result.best_values[n] for n in result.names], dtype=jnp.float64)
     out = []
     for rec in recordings:
         if len(rec) - skip < 3:
             raise ConfigError(f"{rec._where()}skip: {skip} leaves {len(rec) - skip} of {len(rec)} samples (need at least 3)")
-        target = held_out_target(result, rec, start)
+        target = held_out_start(result, rec, modes, x)
         sim, of = np.asarray(_outputs(x, target)), float(_objective(x, target))
+        adj = target.adjustments(x, 0)
+        y0 = np.asarray(target.problems[0].y0 if adj is None or adj.y0 is None else adj.y0, float)
         inputs = {u: np.asarray(rec[u], float)[skip:] for u in m.inputs if u in rec.channels and u not in rec.constants}
         channels, res = {}, []
         for j, c in enumerate(m.outputs):
@@ -115,11 +202,12 @@ def validate(result, recordings: Sequence[Recording], initial: str = "measured",
                 "whiteness": whiteness(e),
                 "input_correlation": {u: input_correlation(e, v) for u, v in inputs.items()},
             }
-        out.append(Validation(rec.name, initial, int(skip), len(rec) - skip, of, channels, np.stack(res, axis=1)))
+        start = {s: float(v) for s, v in zip(m.states, y0)}
+        out.append(Validation(rec.name, _mode_text(initial), int(skip), len(rec) - skip, of, channels, start, np.stack(res, axis=1)))
     return out
 
 
-def compare(recordings: Sequence[Recording], *results, initial: str = "measured", skip: int = 0) -> list[dict]:
+def compare(recordings: Sequence[Recording], *results, initial="measured", skip: int = 0) -> list[dict]:
     """Several fits on the same held-out `recordings`, side by side (MATLAB's `compare` with
     `aic`/`fpe`): per result its model, free parameters, each record's `Validation` and the
     information criteria AIC, AICc, BIC, FPE of all the records' residuals together (each channel
@@ -150,4 +238,4 @@ def format_comparison(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["INITIAL_MODES", "Validation", "compare", "format_comparison", "validate"]
+__all__ = ["INITIAL_MODES", "Validation", "compare", "format_comparison", "initial_modes", "validate"]

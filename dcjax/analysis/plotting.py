@@ -9,6 +9,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..io.files import save_figure
 from ..io.units import SI_UNITS
+from .metrics import LAGS, Z99, autocorrelation, cross_correlation, input_band
 
 
 def channel_label(model, c: str) -> str:
@@ -22,8 +23,9 @@ def _label(c: str, model=None) -> str:
 
 
 def overlay(ax, recording, simulated: np.ndarray, channel: str, title: str = "", model=None):
-    """Measured (dots) and simulated (line) `channel` on `ax`."""
-    ax.plot(recording.t, recording[channel], "k.", ms=3, label="measured")
+    """Measured (dots, where the recording holds `channel`) and simulated (line) `channel` on `ax`."""
+    if channel in recording.channels:
+        ax.plot(recording.t, recording[channel], "k.", ms=3, label="measured")
     ax.plot(recording.t, simulated, "r-", lw=1, label="simulated")
     ax.set(xlabel="t (s)", ylabel=_label(channel, model), title=title or channel)
     ax.legend()
@@ -49,7 +51,7 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
     with its residual below it, and the input(s); with `convergence`, the convergence of every run
     beside the first. Axes carry the channels' SI units (`Model.quantities`). `ax`: an Axes (or one
     per measured channel) to draw only the overlays of the first recording into; returns what it
-    drew on."""
+    drew on. A recording of the inputs alone shows the simulation without residuals."""
     model = result.model
     outs = model.outputs
     recs = list(recordings if recordings is not None else result.recordings)
@@ -64,13 +66,18 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
     shown = recs[:MAX_RECORDINGS]
     history = convergence and np.any(np.isfinite(result.history))
     ncols = len(outs) + (1 if model.inputs else 0) + (1 if history else 0)
-    fig, axes = _figure(2 * len(shown), ncols, (3.6 * ncols, 4.6 * len(shown)), path is not None)
+    per = 2 if any(c in rec.channels for rec in shown for c in outs) else 1  # a residual row where something is measured
+    fig, axes = _figure(per * len(shown), ncols, (3.6 * ncols, 2.3 * per * len(shown)), path is not None)
     for r, rec in enumerate(shown):
-        top, bottom = axes[2 * r], axes[2 * r + 1]
+        top, bottom = axes[per * r], axes[per * r + per - 1]
         sim = result.simulate_outputs(rec)
         for j, c in enumerate(outs):
             y = sim[:, j]
             overlay(top[j], rec, y, c, f"{rec.name}: {c}", model)
+            if c not in rec.channels:
+                if per == 2:
+                    bottom[j].axis("off")
+                continue
             bottom[j].plot(rec.t, y - rec[c], "b-", lw=0.8)
             bottom[j].axhline(0.0, color="k", lw=0.5)
             bottom[j].set(xlabel="t (s)", ylabel=f"residual {_label(c, model)}")
@@ -80,7 +87,8 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
                 top[col].plot(rec.t, rec[c], lw=1, label=_label(c, model))
             top[col].set(xlabel="t (s)", ylabel=", ".join(_label(c, model) for c in model.inputs), title="inputs")
             top[col].legend()
-            bottom[col].axis("off")
+            if per == 2:
+                bottom[col].axis("off")
             col += 1
         if history:
             if r == 0:
@@ -89,9 +97,39 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
                 top[col].set(xlabel="iteration", ylabel="best OF", title=f"convergence ({len(result.history)} runs)")
             else:
                 top[col].axis("off")
-            bottom[col].axis("off")
+            if per == 2:
+                bottom[col].axis("off")
     if len(recs) > len(shown):
         fig.suptitle(f"the first {len(shown)} of {len(recs)} recordings")
+    fig.tight_layout()
+    if path is not None:
+        save_figure(fig, path, dpi=90)
+    return fig
+
+
+def plot_residual_tests(validation, recording, inputs: tuple[str, ...], path: str | Path | None = None, lags: int = LAGS):
+    """MATLAB's `resid` plot of a `Validation`: per output, the residual's autocorrelation at
+    lags 0..`lags` with the whiteness band +-2.58/sqrt(N), and below it its cross-correlation
+    with each of `inputs` at lags -`lags`..`lags` with that pair's band (`input_band`)."""
+    e = validation.residuals
+    outs = list(validation.channels)
+    u = {c: np.asarray(recording[c], float)[validation.skip :] for c in inputs if c in recording.channels}
+    fig, axes = _figure(2, len(outs), (4.2 * len(outs), 6.0), path is not None)
+    n = e.shape[0]
+    for j, c in enumerate(outs):
+        top, bottom = axes[0][j], axes[1][j]
+        top.stem(np.arange(lags + 1), autocorrelation(e[:, j], lags), basefmt="k-")
+        top.axhspan(-Z99 / np.sqrt(n), Z99 / np.sqrt(n), color="C0", alpha=0.15, lw=0)
+        top.set(xlabel="lag (samples)", title=f"{validation.recording}: {c} residual autocorrelation")
+        varying = {name: v for name, v in u.items() if np.ptp(v) > 0}  # a constant input cannot correlate
+        for k, (name, v) in enumerate(varying.items()):
+            band = input_band(e[:, j], v, lags)
+            bottom.plot(np.arange(-lags, lags + 1), cross_correlation(e[:, j], v, lags), ".-", color=f"C{k}", lw=0.8, label=name)
+            bottom.axhline(band, color=f"C{k}", ls="--", lw=0.6)
+            bottom.axhline(-band, color=f"C{k}", ls="--", lw=0.6)
+        bottom.set(xlabel="lag (samples)", title=f"{c} residual x inputs (99 % bands)")
+        if varying:
+            bottom.legend(fontsize=7)
     fig.tight_layout()
     if path is not None:
         save_figure(fig, path, dpi=90)

@@ -106,7 +106,8 @@ def add_output_options(p: argparse.ArgumentParser, out: str, what: str) -> None:
 class Loader:
     """A command's data read as its flags say: a file (or an embedded data set's name) read with
     `reading`, then what is kept of it (`window` T0:T1, `every` K-th sample, `trim` before the
-    switch-on), the clamp `limit` (also on an embedded data set) and the channel `weights`."""
+    switch-on), the clamp `limit` (also on an embedded data set) and the channel `weights`;
+    `measured=False`: a file of the inputs to simulate (the outputs read where present)."""
 
     model: Model
     reading: Reading = Reading()
@@ -115,14 +116,15 @@ class Loader:
     trim: bool = False
     limit: float | None = None
     weights: tuple[float, ...] | None = None
+    measured: bool = True
 
     @classmethod
-    def of(cls, args: argparse.Namespace, model: Model, weights: tuple[float, ...] | None = None) -> "Loader":
+    def of(cls, args: argparse.Namespace, model: Model, weights: tuple[float, ...] | None = None, measured: bool = True) -> "Loader":
         """The loader of a command with the data options (`add_data_options`)."""
         reading = Reading(
             args.columns, args.units, args.scale, args.dt, args.rate, args.delimiter, args.decimal, args.const, bool(args.drop_nan)
         )
-        return cls(model, reading, args.window, args.every, bool(args.trim), args.limit, weights)
+        return cls(model, reading, args.window, args.every, bool(args.trim), args.limit, weights, measured)
 
     def __call__(self, data: str) -> Recording:
         if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
@@ -133,7 +135,14 @@ class Loader:
                 rec = preprocess(rec, self.window, self.every, self.trim, self.model)
         else:
             rec = load_recording(
-                data, model=self.model, limit=self.limit, window=self.window, every=self.every, trim=self.trim, reading=self.reading
+                data,
+                model=self.model,
+                limit=self.limit,
+                window=self.window,
+                every=self.every,
+                trim=self.trim,
+                reading=self.reading,
+                measured=self.measured,
             )
         if self.limit is not None and rec.limit != self.limit:
             rec = rec.replace(limit=self.limit)

@@ -19,6 +19,7 @@ from ..strategies.memory import MEMORIES
 from ..strategies.stopping import Converged
 from .common import Loader, add_data_options, add_output_options
 from .output import OutputFolder, drop_sidecars, each_products, fit_products
+from .validation_lines import INITIAL_HELP, SKIP_HELP, skip_samples
 from .values import mapping, named_numbers, named_numbers_or_numbers, named_ranges, names, numbers, stop_rule, substeps
 
 NOT_GIVEN = object()  # --stop absent: the default's rule
@@ -115,6 +116,12 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
         "search at --runs 2), or none; a single or joint fit: none (no fit.png)",
     )
     add_output_options(f, "out", "result.json and fit.png")
+    g = f.add_argument_group("judged on other recordings (as dcjax validate)")
+    g.add_argument(
+        "--validate", nargs="+", default=None, metavar="FILE", help="held-out recordings to validate the fit on, read as the fitted ones"
+    )
+    g.add_argument("--validate-initial", default="measured", help=INITIAL_HELP)
+    g.add_argument("--validate-skip", default="0", help=SKIP_HELP)
     f.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -176,11 +183,21 @@ def _add_experiment_arguments(f: argparse.ArgumentParser) -> None:
 
 
 @dataclasses.dataclass(frozen=True)
+class HeldOut:
+    """`--validate`'s recordings, each record's `initial` state mode and the samples to `skip`."""
+
+    data: tuple[str, ...]
+    initial: str = "measured"
+    skip: int = 0
+
+
+@dataclasses.dataclass(frozen=True)
 class FitCommand:
     """`dcjax fit` as the library's typed objects: the `model` (its compared states those of
     --measure), the `data` and their `loader`, the `params`, the `observation`, the `integrator`
     (None: a discrete-time model's own), `search` the flags' changes to the default `Search` of
-    the fit (as `dcjax.fit` takes them), `each` (one fit per file), the analyses and outputs."""
+    the fit (as `dcjax.fit` takes them), `each` (one fit per file), the analyses, the outputs and
+    the `held_out` recordings to validate the fit on."""
 
     data: tuple[str, ...]
     model: Model
@@ -194,6 +211,7 @@ class FitCommand:
     uncertainty: bool = False
     plots: str | None = None
     progress: bool = False
+    held_out: HeldOut | None = None
 
     @classmethod
     def of(cls, args: argparse.Namespace) -> "FitCommand":
@@ -207,6 +225,15 @@ class FitCommand:
             raise ConfigError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
         if args.plots not in (None, "none") and not args.each:
             raise ConfigError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
+        if args.validate and args.each:
+            raise ConfigError("--validate goes with a single or joint fit, not --each (dcjax validate RESULT FILE for one of its results)")
+        if not args.validate and (args.validate_initial != "measured" or args.validate_skip != "0"):
+            raise ConfigError("--validate-initial and --validate-skip go with --validate FILE")
+        held_out = (
+            HeldOut(tuple(args.validate), args.validate_initial, skip_samples(args.validate_skip, "--validate-skip"))
+            if args.validate
+            else None
+        )
         observation = Observation(get_loss(args.loss, args.normalize), args.initial, args.offset, args.delay, args.measure, args.hold)
         model = get_model(args.model)
         model = observation.check(model).observed(model)  # --measure: the compared states
@@ -251,6 +278,7 @@ class FitCommand:
             bool(args.uncertainty),
             args.plots,
             sys.stderr.isatty() if args.progress is None else bool(args.progress),
+            held_out,
         )
 
 

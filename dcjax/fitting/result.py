@@ -7,13 +7,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
 from ..analysis.plotting import plot_result
 from ..analysis.report import fit_report
-from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..io.files import strict_json, write_text
 from ..io.recording import Recording
@@ -23,43 +21,14 @@ from ..models.parameters import Parameter, Parameters
 from ..models.priors import prior_from_spec
 from ..models.space import Space, vector_space
 from ..simulation.integrators import Integrator
-from ..simulation.joint import JointProblem, Layout, grid_length, padded
+from ..simulation.joint import JointProblem, Layout
 from ..simulation.losses import get_loss
 from ..simulation.problem import make_problem
 from .observation import Observation
 from .result_file import relative_to, result_record, settings_record
 from .search import RunStatus, SearchRecord
+from .simulated import outputs_on_grid, simulate_on_grid, simulated_recording
 from .vector import base_name, rows_of, transferred, unit_of
-
-
-@filter_jit
-def _simulate(x, target: JointProblem, r: int):
-    """Recording r's states, one compile per problem structure and length, not one per call."""
-    return target.simulate(x, r)
-
-
-def _simulate_on_grid(x, target: JointProblem, r: int) -> np.ndarray:
-    """`_simulate` with recording r's problem padded to its `grid_length` and the padding cut off
-    (the same states: the extra steps come after the end), so results of recordings of many
-    lengths (a folder's summary) share a few compiled programs."""
-    p = target.problems[r]
-    probs = list(target.problems)
-    probs[r] = padded(p, grid_length(p.n))
-    return np.array(_simulate(x, eqx.tree_at(lambda t: t.problems, target, tuple(probs)), r))[: p.n]
-
-
-@filter_jit
-def _simulate_outputs(x, target: JointProblem, r: int):
-    return target.simulate_outputs(x, r)
-
-
-def _outputs_on_grid(x, target: JointProblem, r: int) -> np.ndarray:
-    """`_simulate_on_grid`'s compared outputs (with the fitted offsets)."""
-    p = target.problems[r]
-    probs = list(target.problems)
-    probs[r] = padded(p, grid_length(p.n))
-    return np.array(_simulate_outputs(x, eqx.tree_at(lambda t: t.problems, target, tuple(probs)), r))[: p.n]
-
 
 if TYPE_CHECKING:
     from ..analysis.posterior import Posterior  # lazy: blackjax adds ~0.3 s to importing dcjax
@@ -177,9 +146,10 @@ class FitResult:
     def _fitted(self, recordings) -> bool:
         return self._rows(recordings) is not None
 
-    def problems(self, recordings=None, loss=None):
+    def problems(self, recordings=None, loss=None, measured: bool = True):
         """The settings' problems (integrator, weights, loss, initial states) for `recordings`
-        (default: the fitted ones, each with its own limit); `loss` instead of the fit's."""
+        (default: the fitted ones, each with its own limit); `loss` instead of the fit's;
+        `measured=False`: recordings may hold the inputs alone (`make_problem`)."""
         recs = self.recordings if recordings is None else recordings
         if not recs:
             raise ConfigError("no recording: the result was loaded without its data; pass a recording")
@@ -195,19 +165,24 @@ class FitResult:
                 loss=obs.loss if loss is None else loss,
                 initial=obs.initial_values(self.model, r, fitted),
                 hold=dict(obs.hold),
+                measured=measured,
             )
             for r in recs
         ]
 
-    def target(self, recordings=None, loss=None) -> JointProblem:
+    def target(self, recordings=None, loss=None, measured: bool = True) -> JointProblem:
         """The objective over the search vector for `recordings` (default the fitted ones, with
         the fit's joint weights; others: the first recording's local values, offsets and delays,
-        the initial states as their specs say, equal shares)."""
-        probs = self.problems(recordings, loss)
+        the initial states as their specs say, equal shares; `measured=False`: they may hold the
+        inputs alone)."""
+        probs = self.problems(recordings, loss, measured)
         layout = self.layout or Layout.plain(self.model.names, len(self.recordings) or 1)
         rows = self._rows(recordings)
         if rows is None:
-            return JointProblem(tuple(probs), (1.0 / len(probs),) * len(probs), transferred(layout, len(probs)))
+            moved = transferred(layout, len(probs))
+            outs = self.model.outputs  # a start less its offset where every recording holds the channel
+            start = tuple(j for j in moved.measured_start if all(outs[moved.offset_channels[j]] in r.channels for r in recordings or []))
+            return JointProblem(tuple(probs), (1.0 / len(probs),) * len(probs), dataclasses.replace(moved, measured_start=start))
         if recordings is None:  # the fit's own weights (settings: given or pooled; else equal shares)
             jw = self.joint_weights or [1.0 / len(probs)] * len(probs)
         else:
@@ -441,13 +416,14 @@ class FitResult:
 
     def simulate(self, recording: Recording | None = None) -> np.ndarray:
         """(N, S) states of the best parameters on `recording` (default: the first fitted one; a
-        fitted recording with its own local values and initial states), with the fitted sensor
-        offsets added to the measured states (as the sensors read them; a model with an output
-        equation: the states alone, its outputs are `simulate_outputs`)."""
+        fitted recording with its own local values and initial states; another may hold the
+        inputs alone), with the fitted sensor offsets added to the measured states (as the
+        sensors read them; a model with an output equation: the states alone, its outputs are
+        `simulate_outputs`). `simulation(recording)`: the same, labelled."""
         rec = recording or self.recording
-        target = self.target([rec])
+        target = self.target([rec], measured=False)
         x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
-        sim = _simulate_on_grid(x, target, 0)
+        sim = simulate_on_grid(x, target, 0)
         adj = target.adjustments(x, 0)
         if adj is not None and adj.offset is not None and not self.model.has_output_equation:
             for j, o in enumerate(self.model.output_index):
@@ -456,10 +432,19 @@ class FitResult:
 
     def simulate_outputs(self, recording: Recording | None = None) -> np.ndarray:
         """(N, C) the compared outputs (`model.outputs`, in order) of the best parameters on
-        `recording` (default: the first fitted one), as the sensors read them: through the
-        model's output equation, with the fitted offsets."""
+        `recording` (default: the first fitted one; another may hold the inputs alone), as the
+        sensors read them: through the model's output equation, with the fitted offsets."""
         x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
-        return _outputs_on_grid(x, self.target(None if recording is None else [recording]), 0)
+        return outputs_on_grid(x, self.target(None if recording is None else [recording], measured=False), 0)
+
+    def simulation(self, recording: Recording | None = None) -> Recording:
+        """The simulation of `recording` (default: the first fitted one; any other, its inputs
+        alone suffice) as a `Recording` named by the model: `t`, the inputs, every state (as
+        `simulate`) and every output that is not a state (as `simulate_outputs`)."""
+        rec = recording or self.recording
+        if rec is None:
+            raise ConfigError("no recording: the result was loaded without its data; pass a recording")
+        return simulated_recording(self, rec)
 
     def validate(self, recordings, initial: str = "measured", skip: int = 0) -> list:
         """The held-out figures of this fit on `recordings` (`dcjax.analysis.held_out.validate`):

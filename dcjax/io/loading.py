@@ -217,6 +217,7 @@ def load_recording(
     constants: dict | None = None,
     drop_nan: bool = False,
     reading: Reading | None = None,
+    measured: bool = True,
 ) -> Recording:
     """A recording from a file, with the model's channels (default: the paper's `t, u_a, i_a,
     omega`) in SI units.
@@ -251,9 +252,11 @@ def load_recording(
     table = _table_of(path, read)
     meta = read_sidecar(path)
     consts = {**(meta.get("constants") or {}), **(read.constants or {})}
-    needed = tuple(c for c in m.channels if c not in consts or c not in m.inputs)
-    unmeasured = tuple(s for s in m.states if s not in needed)  # read where present: an initial state
+    needed = tuple(c for c in m.channels if (c not in consts or c not in m.inputs) and (measured or c in m.inputs))
+    unmeasured = tuple(c for c in (*m.states, *m.outputs) if c not in needed)  # read where present: an initial state
     columns, units = dict(read.columns or {}), dict(read.units or {})
+    if not measured:  # an output's mapped column the file lacks: not read
+        columns = {c: v for c, v in columns.items() if c not in unmeasured or _has_column(table.columns, v)}
     chans = select_channels(
         table.columns,
         needed,
@@ -286,6 +289,13 @@ def load_recording(
     }
     load = read.to_dict() | {k: v for k, v in kept.items() if v not in (None, False)}
     return rec.replace(metadata={**meta, "source": _source(path, load, rec.name)})
+
+
+def _has_column(table: dict, source) -> bool:
+    """Whether `table` has the column `source` (a header, or a 0-based index)."""
+    if isinstance(source, int) or (isinstance(source, str) and source.isdigit()):
+        return 0 <= int(source) < len(table)
+    return source in table
 
 
 def _table_of(path: Path, read: Reading) -> Table:

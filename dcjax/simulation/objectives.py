@@ -4,6 +4,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..errors import ConfigError
+from ..io.recording import Recording
 from .adjustments import Adjustments, input_pieces
 from .integrate import advance, advance_pieces, initial_state, prepare, scan_inputs, scan_values, simulate_scan
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
@@ -24,7 +26,17 @@ def _plain(problem: Problem, adjustments: Adjustments | None) -> bool:
     )
 
 
-def simulate(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch n s"]:
+def as_problem(problem: "Problem | Recording", model=None) -> Problem:
+    """`problem`, or a recording made one for simulation alone (`make_problem(recording,
+    model=model, measured=False)`: its inputs and constants suffice, with the default RK4)."""
+    if isinstance(problem, Recording):
+        return make_problem(problem, model=model, measured=False)
+    if model is not None:
+        raise ConfigError("model: give it with a recording; a Problem holds its own model")
+    return problem
+
+
+def simulate(params, problem: "Problem | Recording", adjustments: Adjustments | None = None, *, model=None) -> Float[Array, "*batch n s"]:
     """Every state of the model at the recording's sample instants; row 0 is the initial state.
 
     `params`: a parameter vector (…, P) in the model's `names` order, a name -> value dict or a
@@ -32,7 +44,9 @@ def simulate(params, problem: Problem, adjustments: Adjustments | None = None) -
     `(*batch, N, S)`. `jax.vmap` over `params` gives the same. A population (P, n) goes through
     the Pallas kernel where `dcjax.simulation.kernel.kernel_mode()` says so (on a GPU).
     `adjustments`: a fitted initial state and input delays (`dcjax.simulation.adjustments`; the
-    states are returned without sensor offsets)."""
+    states are returned without sensor offsets). `problem` may also be a `Recording` (its
+    inputs and constants suffice) with `model=` (default: the paper's DC drive)."""
+    problem = as_problem(problem, model)
     mode = kernel_mode()
     if mode is not None and adjustments is None:
         x = problem.model.as_array(params)
@@ -170,10 +184,13 @@ def outputs_of(params, problem: Problem, states: Float[Array, "*batch n s"]) -> 
     return jnp.moveaxis(out, 0, -2)
 
 
-def simulate_outputs(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch n c"]:
+def simulate_outputs(
+    params, problem: "Problem | Recording", adjustments: Adjustments | None = None, *, model=None
+) -> Float[Array, "*batch n c"]:
     """The model's compared outputs (`model.outputs`) at the sample instants, as the sensors read
     them (with the fitted offsets of `adjustments`): the states through the output equation, or
-    the measured states themselves."""
+    the measured states themselves. `problem` may be a `Recording` with `model=` (`simulate`)."""
+    problem = as_problem(problem, model)
     out = outputs_of(params, problem, simulate(params, problem, adjustments))
     off = None if adjustments is None else adjustments.offset
     return out if off is None else out + off[..., None, :]

@@ -93,6 +93,7 @@ def make_problem(
     unroll: int = 1,
     loss: Loss | str | None = None,
     hold: "dict[str, str] | None" = None,
+    measured: bool = True,
 ) -> Problem:
     """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
 
@@ -109,6 +110,8 @@ def make_problem(
       next, as a drive's PWM updated once per sample applies it).
     - `loss`: a `dcjax.Loss` (`SSE()`, the default: eq. 24/27; `L1()`, `Huber(delta)`; each
       normalised by the channel's peak or not), or its spec (`"l1"`, `"huber:0.1"`).
+    - `measured=False`: a problem to simulate the recording's inputs alone; it may lack the
+      model's outputs (their targets are NaN, and so is the objective).
     - The supply's limit (`model.clamp`: on `model.limited_state`, or the model's own) is the recording's `limit` (None: no limit;
       `recording.replace(limit=...)` for another).
     """
@@ -122,7 +125,8 @@ def make_problem(
     check_positive_int("unroll", unroll)
     outs = model.outputs
     w = channel_weights(weights, outs)
-    missing = [c for c in model.channels if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
+    needed = model.channels if measured else model.inputs
+    missing = [c for c in needed if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
     if missing:
         consts = f" and constants {', '.join(recording.constants)}" if recording.constants else ""
         raise ConfigError(
@@ -145,10 +149,10 @@ def make_problem(
     limit = recording.limit
     if limit is not None and not limit > 0:
         raise ConfigError(f"current limit must be positive, got {limit}")
-    y = np.stack([recording[c] for c in outs], axis=1)
+    y = np.stack([recording[c] if c in recording.channels else np.full(len(t), np.nan) for c in outs], axis=1)
     peak = np.max(np.abs(y), axis=0)
     for c, m in zip(outs, peak):
-        if not m > 0:
+        if not m > 0 and not (np.isnan(m) and not measured):
             raise DataError("dead", f"{recording._where()}column {c!r} is all zero (the objective divides by its maximum)")
     init = dict(initial or {})
     bad = [s for s in init if s not in model.states]

@@ -65,8 +65,9 @@ def case_data(case: str, seed: int) -> tuple[list[dcjax.Recording], dict, dcjax.
     raise ValueError(f"case must be one of {', '.join(CASES)}, got {case!r}")
 
 
-def one_seed(seed: int, case: str = "sd1", runs: int = 2, budget: int = 40_000) -> dict:
-    """Does each 90 % interval of seed `seed`'s fit (DE `runs` x `budget` FEs, polished) hold the truth."""
+def one_seed(seed: int, case: str = "sd1", runs: int = 2, budget: int = 40_000, draws: int = 500) -> dict:
+    """Does each 90 % interval of seed `seed`'s fit (DE `runs` x `budget` FEs, polished; NUTS
+    `draws` after as many warmup steps, 4 chains) hold the truth."""
     recs, truth, obs = case_data(case, seed)
     t0 = time.perf_counter()
     res = dcjax.fit(
@@ -77,7 +78,7 @@ def one_seed(seed: int, case: str = "sd1", runs: int = 2, budget: int = 40_000) 
     )
     u = res.uncertainty().uncertainties
     assert u is not None
-    post = res.sample(draws=500, chains=4, warmup=500, seed=seed)
+    post = res.sample(draws=draws, chains=4, warmup=draws, seed=seed)
     out = {"seed": seed, "seconds": time.perf_counter() - t0, "linearised": {}, "posterior": {}, "rhat": max(post.rhat.values())}
     for n, true in truth.items():
         v, se = u.params[n], u.se[n]

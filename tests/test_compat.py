@@ -25,6 +25,7 @@ def _table4_params():
     return params
 
 
+@pytest.mark.slow  # > 4 s: the full run's
 def test_identify_warns_and_gives_the_bits_of_fit(sd1):
     from dcjax.compat import identify
 

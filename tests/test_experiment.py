@@ -192,6 +192,7 @@ def test_equal_length_recordings_share_one_vmapped_objective(sd1, truth):
     np.testing.assert_array_equal(local.objective(xl), 0 + want)
 
 
+@pytest.mark.slow  # > 4 s: the full run's
 def test_a_stacked_target_gives_the_same_bits_from_a_program_that_does_not_grow(sd1, truth, monkeypatch):
     """`stacked_target`: a joint problem of one group (equal lengths; close ones padded) held
     stacked gives the JointProblem's OF to the bit (and its residuals, the polish's), and its compiled objective does not grow with

@@ -74,6 +74,7 @@ def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     assert err.count("\n") == 0 and "initial: th 'guess': give measured, fitted, estimate, estimate:K" in err, err
 
 
+@pytest.mark.slow
 def test_the_residual_tests_tell_the_right_model_from_a_wrong_order(tmp_path):
     from output_models import PulleyDrive, RigidPulleyDrive
 

@@ -260,6 +260,7 @@ def test_cli_rejects_unknown_memory(capsys):
     assert line.startswith("dcjax: error: argument --memory: invalid choice: 'ltma'")
 
 
+@pytest.mark.slow  # > 4 s: the full run's
 def test_hash_memory_finds_the_same_cell_only():
     from dcjax.strategies.memory import HashRecords
 

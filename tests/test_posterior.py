@@ -202,15 +202,15 @@ def test_cli_sample_of_an_l1_fit_uses_the_laplace_likelihood(noisy_sd1, tmp_path
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case, seeds, runs, budget", [("sd1", 8, 1, 14_000), ("joint-offset", 4, 2, 40_000)])
-def test_ninety_percent_intervals_cover_the_truth_over_noise_seeds(case, seeds, runs, budget):
+@pytest.mark.parametrize("case, seeds, runs, budget, draws", [("sd1", 8, 1, 14_000, 500), ("joint-offset", 4, 2, 40_000, 250)])
+def test_ninety_percent_intervals_cover_the_truth_over_noise_seeds(case, seeds, runs, budget, draws):
     """Noise seeds of SD1-like data (1 %, the motor known to start at rest; `joint-offset`: two
     recordings with a shared current offset and the bench's search, `experiments.bench_coverage`): the linearised and
     the posterior 90 % intervals each hold the truth in 80-97 % of the (seed, parameter) cases
     (pooled: a few seeds cannot judge one parameter; `python -m experiments.bench_coverage` does 50)."""
     from experiments.bench_coverage import one_seed
 
-    rows = [one_seed(s, case, runs=runs, budget=budget) for s in range(seeds)]  # sd1: the bench's optima at a third of its search
+    rows = [one_seed(s, case, runs=runs, budget=budget, draws=draws) for s in range(seeds)]  # sd1: the bench's optima at a third of its search
     for kind in ("linearised", "posterior"):
         hits = [v for d in rows for v in d[kind].values()]
         assert 0.80 <= np.mean(hits) <= 0.97, (kind, np.mean(hits), rows)

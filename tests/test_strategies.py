@@ -171,6 +171,7 @@ def test_evosax_adapter(name):
     assert np.all((x >= 0) & (x <= 1))
 
 
+@pytest.mark.slow  # > 4 s: the full run's
 def test_rank_weights_are_evosax_weights_to_the_bit_ties_and_nan_included(monkeypatch):
     """dcjax's pairwise ranks against evosax's own `weights_fitness_shaping_fn` (rankdata's sorts):
     the same weights on fitness with ties, +inf and NaN, and a CMA-ES run the same bits with either."""

@@ -116,12 +116,7 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
         "search at --runs 2), or none; a single or joint fit: none (no fit.png)",
     )
     add_output_options(f, "out", "result.json and fit.png")
-    g = f.add_argument_group("judged on other recordings (as dcjax validate)")
-    g.add_argument(
-        "--validate", nargs="+", default=None, metavar="FILE", help="held-out recordings to validate the fit on, read as the fitted ones"
-    )
-    g.add_argument("--validate-initial", default="measured", help=INITIAL_HELP)
-    g.add_argument("--validate-skip", default="0", help=SKIP_HELP)
+    _add_held_out_arguments(f)
     f.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -129,6 +124,15 @@ def add_arguments(f: argparse.ArgumentParser) -> None:
         help="progress bar on stderr (default: when stderr is a terminal)",
     )
     add_data_options(f)
+
+
+def _add_held_out_arguments(f: argparse.ArgumentParser) -> None:
+    g = f.add_argument_group("judged on other recordings (as dcjax validate)")
+    g.add_argument(
+        "--validate", nargs="+", default=None, metavar="FILE", help="held-out recordings to validate the fit on, read as the fitted ones"
+    )
+    g.add_argument("--validate-initial", default="measured", help=INITIAL_HELP)
+    g.add_argument("--validate-skip", default="0", help=SKIP_HELP)
 
 
 def _add_experiment_arguments(f: argparse.ArgumentParser) -> None:

@@ -210,7 +210,9 @@ def test_ninety_percent_intervals_cover_the_truth_over_noise_seeds(case, seeds, 
     (pooled: a few seeds cannot judge one parameter; `python -m experiments.bench_coverage` does 50)."""
     from experiments.bench_coverage import one_seed
 
-    rows = [one_seed(s, case, runs=runs, budget=budget, draws=draws) for s in range(seeds)]  # sd1: the bench's optima at a third of its search
+    rows = [
+        one_seed(s, case, runs=runs, budget=budget, draws=draws) for s in range(seeds)
+    ]  # sd1: the bench's optima at a third of its search
     for kind in ("linearised", "posterior"):
         hits = [v for d in rows for v in d[kind].values()]
         assert 0.80 <= np.mean(hits) <= 0.97, (kind, np.mean(hits), rows)

@@ -293,6 +293,23 @@ def test_cell_recovers_the_truth(model_key, lengths_key, feature, monkeypatch):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("model_key", ["dc", "sensor"])
+def test_a_held_out_start_is_estimated_under_every_feature(model_key):
+    """`validate(initial="estimate")` (findstates) of a joint fit with a local parameter, an offset,
+    a delay and a fitted start: its first recording, renamed (held out: the first recording's
+    local values, offsets and delays), gets the reference's start back and its outputs to 1e-5 of
+    their ranges."""
+    case = CASES[model_key]
+    res, _ = fit_cell(model_key, "equal", "all")
+    (rec, _), _ = data(model_key, "equal", "all")
+    (v,) = res.validate([rec.replace(name="held-out")], initial="estimate")
+    y0 = ref.settle(case.steady, case.truth, _inputs(case, 240, 0)[0], np.zeros(len(case.model.states)), 0.2)
+    got = np.array([v.start[s] for s in case.model.states])
+    assert np.max(np.abs(got - y0)) <= 1e-4 * np.max(np.abs(y0)), (got, y0)
+    assert max(f["nrmse"] for f in v.channels.values()) < 1e-5, v.channels
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("model_key", ["dc", "pmsm"])
 def test_the_reference_converges(model_key):
     """The reference at 32 sub-steps is within 1e-9 of the peaks of itself at 64, with a delay too

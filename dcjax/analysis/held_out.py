@@ -24,7 +24,8 @@ import numpy as np
 
 from ..compiling import filter_jit
 from ..errors import ConfigError
-from ..io.recording import Recording
+from ..extras import optional_module
+from ..io.recording import Recording, as_recording
 from ..simulation.joint import JointProblem
 from .initial_states import estimate_states, released, with_start
 from .metrics import channel_metrics, criteria, input_correlation, whiteness
@@ -47,6 +48,20 @@ class Validation:
     channels: dict[str, dict]
     start: dict[str, float]
     residuals: np.ndarray = dataclasses.field(repr=False, compare=False)  # (samples, C) measured - simulated, after `skip`
+
+    def to_dataframe(self):
+        """The figures as a pandas DataFrame, a row per output channel (`input_correlation` a
+        column per input, `input_correlation[u]`). Needs pandas (`dcjax[notebook]`)."""
+        pd = optional_module("pandas", "Validation.to_dataframe")
+        rows = {}
+        for c, f in self.channels.items():
+            rows[c] = {k: v for k, v in f.items() if k != "input_correlation"} | {
+                f"input_correlation[{u}]": v for u, v in f["input_correlation"].items()
+            }
+        df = pd.DataFrame.from_dict(rows, orient="index")
+        df.index.name = "output"
+        df.attrs.update({"recording": self.recording, "initial": self.initial, "skip": self.skip, "of": self.of, "start": self.start})
+        return df
 
     def to_dict(self) -> dict:
         """The keys validation.json writes for this record."""
@@ -182,6 +197,7 @@ def validate(result, recordings: Sequence[Recording], initial="measured", skip: 
         raise ConfigError(f"skip must be a non-negative whole number of samples, got {skip!r}")
     modes = initial_modes(result, initial)
     m = result.model
+    recordings = [as_recording(r, m) for r in recordings]  # a pandas DataFrame: Recording.from_dataframe
     x = jnp.asarray([result.best_values[n] for n in result.names], dtype=jnp.float64)
     out = []
     for rec in recordings:

@@ -35,6 +35,7 @@ from jax.sharding import Mesh, PartitionSpec
 
 from ..compiling import filter_jit
 from ..errors import ConfigError
+from ..extras import optional_module
 from ..io.files import write_atomic
 from ..models.priors import Prior, prior_from_spec
 from ..models.space import Space
@@ -72,6 +73,23 @@ class Posterior:
     seed: int
     priors: dict[str, str] = dataclasses.field(default_factory=dict)  # name -> prior spec where not uniform in the range
     result_sha256: str | None = None  # of the result.json sampled, where saved with it (`save`)
+    # per draw (chains, draws): diverging, n_steps, acceptance_rate, energy, tree_depth, lp (the log
+    # density of the whitened draw), step_size: ArviZ's sample_stats (`to_arviz`)
+    sample_stats: dict[str, np.ndarray] = dataclasses.field(default_factory=dict, repr=False)
+
+    def to_arviz(self, observed_data: "Mapping[str, np.ndarray] | None" = None):
+        """The draws as ArviZ data (ArviZ >= 1.0: an `xarray.DataTree` from `arviz.from_dict`; 0.x:
+        `InferenceData`): `posterior` (a variable per free entry), `sample_stats` (per draw:
+        energy, diverging, tree_depth, n_steps, step_size, acceptance_rate, lp) and, where given,
+        `observed_data` (name -> array, e.g. the recording's channels). Needs ArviZ
+        (`dcjax[notebook]`)."""
+        az = optional_module("arviz", "Posterior.to_arviz")
+        groups = {"posterior": {n: self.draws[..., k] for k, n in enumerate(self.names)}, "sample_stats": dict(self.sample_stats)}
+        if observed_data:
+            groups["observed_data"] = {k: np.asarray(v) for k, v in observed_data.items()}
+        if int(str(az.__version__).split(".")[0]) >= 1:
+            return az.from_dict(groups)
+        return az.from_dict(**groups)
 
     def interval(self, name: str, prob: float = 0.9) -> tuple[float, float]:
         """The central `prob` interval of `name`'s draws (all chains)."""
@@ -149,6 +167,7 @@ class Posterior:
             noise=np.array(list(self.noise.values())),
             prior_names=np.array(list(self.priors), dtype=str),
             priors=np.array(list(self.priors.values()), dtype=str),
+            **{f"stat_{k}": v for k, v in self.sample_stats.items()},  # pyright: ignore[reportArgumentType]
         )
 
     @classmethod
@@ -185,6 +204,7 @@ class Posterior:
             wall={"warmup": float(wall[0]), "sampling": float(wall[1])},
             seed=int(scalar("seed")),
             priors=dict(zip(map(str, d["prior_names"]), map(str, d["priors"]))) if "priors" in d else {},
+            sample_stats={k[len("stat_") :]: np.asarray(d[k]) for k in d.files if k.startswith("stat_")},
         )
         return dataclasses.replace(post, result_sha256=str(d["result_sha256"]) or None if "result_sha256" in d else None)
 
@@ -322,7 +342,15 @@ def _draw(
 
         def step(s, k):
             s, info = kernel.step(k, s)
-            return s, (s.position, info.is_divergent, info.num_integration_steps, info.acceptance_rate)
+            stats = (
+                info.is_divergent,
+                info.num_integration_steps,
+                info.acceptance_rate,
+                info.energy,
+                info.num_trajectory_expansions,
+                s.logdensity,
+            )
+            return s, (s.position, stats)
 
         return jax.lax.scan(step, state, jax.random.split(key, draws))[1]
 
@@ -370,7 +398,7 @@ def sample(
     args = (jax.random.split(k_draw, chains), states, params, likelihood, noise, space, white, prior, int(draws), mesh)
     draw = _draw.ahead(*args)  # pyright: ignore[reportFunctionMemberAccess]  # compiled before the sampling is timed
     t1 = time.perf_counter()
-    pos, div, steps, acc = jax.block_until_ready(draw(*args))
+    pos, (div, steps, acc, energy, depth, lp) = jax.block_until_ready(draw(*args))
     t2 = time.perf_counter()
     free, rhat, ess_bulk, ess_tail = map(np.asarray, _diagnostics(pos, space, white))
     names = space.free_names
@@ -389,6 +417,15 @@ def sample(
         wall={"warmup": t1 - t0, "sampling": t2 - t1},
         seed=int(seed),
         priors={n: prior_from_spec(p).spec for n, p in (priors or {}).items()},
+        sample_stats={
+            "diverging": np.asarray(div, bool),
+            "n_steps": np.asarray(steps, np.int64),
+            "acceptance_rate": np.asarray(acc, float),
+            "energy": np.asarray(energy, float),
+            "tree_depth": np.asarray(depth, np.int64),
+            "lp": np.asarray(lp, float),
+            "step_size": np.broadcast_to(np.asarray(params["step_size"], float)[:, None], np.shape(div)).copy(),
+        },
     )
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import ConfigError
 from ..io.loading import load_recording
-from ..io.recording import Recording
+from ..io.recording import Recording, as_recording
 from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
 from .observation import Observation
@@ -52,6 +52,7 @@ def fit_each(
     if isinstance(params, (list, tuple)) and len(params) != len(items):
         raise ConfigError(f"params: one entry per recording ({len(items)}), got {len(params)}")
     loader = load or (lambda path: load_recording(path, model=p.model))
+    items = [as_recording(item, p.model) for item in items]  # a pandas DataFrame: Recording.from_dataframe
     sets = [
         RecordingSet(
             [item] if isinstance(item, Recording) else partial(_loaded, loader, str(item)),

@@ -13,7 +13,7 @@ limit on the generations) with the strategy object (`dcjax.strategies.DERand1Exp
 from collections.abc import Mapping, Sequence
 
 from ..errors import ConfigError
-from ..io.recording import Recording
+from ..io.recording import Recording, as_recording
 from ..models import Model
 from ..models.parameters import Parameters
 from ..simulation.integrators import AutoSubsteps, Integrator
@@ -25,11 +25,14 @@ from .search import Search
 from .sets import RecordingSet, fit_sets
 
 
-def recordings_of(data) -> list[Recording]:
-    """`data` as a non-empty list of recordings (one recording, or a list of them)."""
-    items = list(data) if isinstance(data, (list, tuple)) else [data]
+def recordings_of(data, model=None) -> list[Recording]:
+    """`data` as a non-empty list of recordings (one recording or pandas DataFrame, or a list of
+    them; a DataFrame read by `Recording.from_dataframe` with `model`)."""
+    items = [as_recording(r, model) for r in (list(data) if isinstance(data, (list, tuple)) else [data])]
     if not items or not all(isinstance(r, Recording) for r in items):
-        raise ConfigError("data must be a dcjax.Recording or a non-empty list of them")
+        raise ConfigError(
+            "data must be a dcjax.Recording, a pandas DataFrame (its time a column t or the index) or a non-empty list of them"
+        )
     return [r for r in items if isinstance(r, Recording)]
 
 
@@ -73,7 +76,7 @@ def fit(
     The data checks (`dcjax.analysis.checks`) run on every recording first: an `error` finding
     (a dead or alternating channel) raises a one-line `DataError`; the warnings are in the
     result's `checks`."""
-    recordings = recordings_of(data)
+    recordings = recordings_of(data, model)
     nd = getattr(getattr(integrator, "integrator", integrator), "substeps", 1)
     default = Search.for_steps(sum(len(r) for r in recordings) * nd if len(recordings) > 1 else 0)
     p = plan(model, search, observation=observation, integrator=integrator, default=default, legacy=legacy)

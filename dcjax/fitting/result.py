@@ -14,7 +14,7 @@ from ..analysis.plotting import plot_result
 from ..analysis.report import fit_report
 from ..errors import ConfigError
 from ..io.files import strict_json, write_text
-from ..io.recording import Recording
+from ..io.recording import Recording, as_recording
 from ..models import Model, get_model
 from ..models.bounds import Bounds
 from ..models.parameters import Parameter, Parameters
@@ -420,7 +420,7 @@ class FitResult:
         inputs alone), with the fitted sensor offsets added to the measured states (as the
         sensors read them; a model with an output equation: the states alone, its outputs are
         `simulate_outputs`). `simulation(recording)`: the same, labelled."""
-        rec = recording or self.recording
+        rec = self.recording if recording is None else as_recording(recording, self.model, measured=False)
         target = self.target([rec], measured=False)
         x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
         sim = simulate_on_grid(x, target, 0)
@@ -435,13 +435,14 @@ class FitResult:
         `recording` (default: the first fitted one; another may hold the inputs alone), as the
         sensors read them: through the model's output equation, with the fitted offsets."""
         x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
-        return outputs_on_grid(x, self.target(None if recording is None else [recording], measured=False), 0)
+        recs = None if recording is None else [as_recording(recording, self.model, measured=False)]
+        return outputs_on_grid(x, self.target(recs, measured=False), 0)
 
     def simulation(self, recording: Recording | None = None) -> Recording:
         """The simulation of `recording` (default: the first fitted one; any other, its inputs
         alone suffice) as a `Recording` named by the model: `t`, the inputs, every state (as
         `simulate`) and every output that is not a state (as `simulate_outputs`)."""
-        rec = recording or self.recording
+        rec = self.recording if recording is None else as_recording(recording, self.model, measured=False)
         if rec is None:
             raise ConfigError("no recording: the result was loaded without its data; pass a recording")
         return simulated_recording(self, rec)
@@ -454,6 +455,11 @@ class FitResult:
         from ..analysis.held_out import validate  # lazy: the analysis a user asks for
 
         return validate(self, recordings, initial=initial, skip=skip)
+
+    def to_dataframe(self):
+        """The parameter table (`params.to_dataframe()`: value, stderr after `uncertainty()`,
+        range, vary, unit) as a pandas DataFrame. Needs pandas (`dcjax[notebook]`)."""
+        return self.params.to_dataframe()
 
     def plot(self, path: str | Path | None = None, **kw):
         """Measured vs simulated channels with residuals and inputs (paper Figs. 8–11) and the

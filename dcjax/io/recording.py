@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError
+from ..extras import optional_module
 from ..models import get_model
 from .units import select_channels
 
@@ -179,14 +180,32 @@ class Recording:
 
     @classmethod
     def from_dataframe(
-        cls, df, columns=None, units=None, model=None, name: str = "", i_limit=None, scale=None, dt=None, rate=None
-    ) -> "Recording":
+        cls, df, columns=None, units=None, model=None, name: str = "", limit=None, scale=None, dt=None, rate=None, constants=None,
+        i_limit=None, measured: bool = True,
+    ) -> "Recording":  # fmt: skip
         """From a pandas DataFrame (or a dict of arrays): `columns` maps channels to column names,
         `units` converts to SI, `scale` multiplies channels, `dt`/`rate` stand in for a missing
-        time column (see `dcjax.load_recording`)."""
+        time column (see `dcjax.load_recording`). The time may be the index (numbers in s, or
+        datetimes/timedeltas: seconds from the first); `df.attrs` may give `units`, `name`,
+        `limit` and `constants` (as `to_dataframe` writes them; the arguments win). `measured=False`:
+        the model's outputs are read where present (a table of the inputs to simulate)."""
+        if i_limit is not None:
+            from ..deprecation import warn_deprecated
+
+            warn_deprecated("from_dataframe(i_limit=)", "limit=", since="0.2")
+            limit = i_limit if limit is None else limit
         return recording_from_table(
-            df, columns=columns, units=units, model=model, name=name, i_limit=i_limit, scale=scale, dt=dt, rate=rate
-        )
+            df, columns=columns, units=units, model=model, name=name, limit=limit, scale=scale, dt=dt, rate=rate, constants=constants,
+            measured=measured,
+        )  # fmt: skip
+
+    def to_dataframe(self):
+        """A pandas DataFrame indexed by `t` (s) with a column per channel; `attrs` hold the name,
+        limit and constants (`from_dataframe` reads them back). Needs pandas (`dcjax[notebook]`)."""
+        pd = optional_module("pandas", "Recording.to_dataframe")
+        df = pd.DataFrame({c: np.asarray(v) for c, v in self.channels.items()}, index=pd.Index(np.asarray(self.t), name="t"))
+        df.attrs.update({"name": self.name, "limit": self.limit, "constants": self.constants})
+        return df
 
     def select(self, index) -> "Recording":
         """The samples at `index` (a slice or index array) of every channel."""
@@ -298,20 +317,60 @@ def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: b
     return out.replace(t=out.t - out.t[0]) if rezero_time else out
 
 
+def _index_seconds(index) -> np.ndarray | None:
+    """A table's index as times in s (numbers as they are; datetimes or timedeltas from the
+    first), or None for a default 0..N-1 range index."""
+    kind = type(index).__name__
+    if kind == "RangeIndex" and index.name is None:
+        return None
+    values = np.asarray(index)
+    if np.issubdtype(values.dtype, np.datetime64) or np.issubdtype(values.dtype, np.timedelta64):
+        return (values - values[0]) / np.timedelta64(1, "s")
+    if np.issubdtype(values.dtype, np.number):
+        return values.astype(np.float64)
+    return None
+
+
 def recording_from_table(
-    table, columns=None, units=None, model=None, name: str = "", i_limit=None, scale=None, dt=None, rate=None
-) -> Recording:
+    table, columns=None, units=None, model=None, name: str = "", limit=None, scale=None, dt=None, rate=None, constants=None,
+    measured: bool = True,
+) -> Recording:  # fmt: skip
     """A recording from any column table (a pandas DataFrame, a dict of arrays, a structured array);
-    `columns`, `units`, `scale`, `dt`/`rate` as in `load_recording`."""
+    `columns`, `units`, `scale`, `dt`/`rate` as in `load_recording`; a DataFrame's index may be
+    its time, its `attrs` give `units`, `name`, `limit` and `constants` where not given."""
     m = get_model(model)
+    attrs = dict(getattr(table, "attrs", None) or {})
     if hasattr(table, "columns") and hasattr(table, "__getitem__"):
         cols = {str(c): np.asarray(table[c]) for c in table.columns}
+        index = getattr(table, "index", None)
+        seconds = None if index is None else _index_seconds(index)
+        time_given = "t" in (columns or {}) or dt is not None or rate is not None
+        if index is not None and seconds is not None:
+            if index.name is not None:
+                cols.setdefault(str(index.name), seconds)
+            if "t" not in cols and not time_given:
+                cols["t"] = seconds
     elif isinstance(table, dict):
         cols = {str(k): np.asarray(v) for k, v in table.items()}
     elif getattr(table, "dtype", None) is not None and table.dtype.names:
         cols = {n: np.asarray(table[n]) for n in table.dtype.names}
     else:
         raise DataError("table must be a DataFrame, a dict of arrays or a structured array")
-    chans = select_channels(cols, m.channels, columns, units, m.quantities, scale=scale, dt=dt, rate=rate)
+    units = units if units is not None else attrs.get("units")
+    consts = _constants(constants if constants is not None else attrs.get("constants") or {}, f"{name or attrs.get('name') or 'table'}: ")
+    needed = tuple(c for c in m.channels if (c not in consts or c not in m.inputs) and (measured or c in m.inputs))
+    optional = tuple(c for c in (*m.states, *m.outputs) if c not in needed)
+    chans = select_channels(
+        cols, needed, columns, units, m.quantities, scale=scale, dt=dt, rate=rate, inputs=tuple(m.inputs), optional=optional
+    )
     t = chans.pop("t")
-    return Recording(t=t, channels=chans, limit=i_limit, name=name)
+    limit = limit if limit is not None else attrs.get("limit")
+    return Recording(t=t, channels=chans, limit=limit, name=name or attrs.get("name") or "", constants=consts or None)
+
+
+def as_recording(data, model=None, measured: bool = True):
+    """`data` as it is, or a pandas DataFrame as `Recording.from_dataframe(data, model=model,
+    measured=measured)`."""
+    if not isinstance(data, Recording) and hasattr(data, "columns") and hasattr(data, "index"):
+        return Recording.from_dataframe(data, model=model, measured=measured)
+    return data

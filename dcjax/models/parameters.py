@@ -20,6 +20,7 @@ from collections.abc import Iterator, Mapping, Sequence
 import numpy as np
 
 from ..errors import ConfigError
+from ..extras import optional_module
 from .priors import Prior, prior_from_spec
 
 
@@ -198,6 +199,19 @@ class Parameters(Mapping[str, Parameter]):
 
     def __repr__(self) -> str:
         return f"Parameters({', '.join(f'{n}={p.value!r}' for n, p in self._items.items())})"
+
+    def to_dataframe(self):
+        """The table as a pandas DataFrame indexed by name: value, stderr, relative stderr (of
+        |value|), min, max, vary, unit, local, scale. Needs pandas (`dcjax[notebook]`)."""
+        pd = optional_module("pandas", "Parameters.to_dataframe")
+        rows = {}
+        for n, p in self._items.items():
+            rel = abs(p.stderr / p.value) if p.stderr is not None and p.value else None
+            rows[n] = {"value": p.value, "stderr": p.stderr, "rel_stderr": rel, "min": p.min, "max": p.max, "vary": p.vary, "unit": p.unit,
+                       "local": p.local, "scale": p.scale}  # fmt: skip
+        df = pd.DataFrame.from_dict(rows, orient="index")
+        df.index.name = "name"
+        return df
 
     def copy(self) -> "Parameters":
         return Parameters(self)

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ..errors import ConfigError
-from ..io.recording import Recording
+from ..io.recording import Recording, as_recording
 from .adjustments import Adjustments, input_pieces
 from .integrate import advance, advance_pieces, initial_state, prepare, scan_inputs, scan_values, simulate_scan
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
@@ -29,6 +29,7 @@ def _plain(problem: Problem, adjustments: Adjustments | None) -> bool:
 def as_problem(problem: "Problem | Recording", model=None) -> Problem:
     """`problem`, or a recording made one for simulation alone (`make_problem(recording,
     model=model, measured=False)`: its inputs and constants suffice, with the default RK4)."""
+    problem = as_recording(problem, model, measured=False)  # a pandas DataFrame: Recording.from_dataframe
     if isinstance(problem, Recording):
         return make_problem(problem, model=model, measured=False)
     if model is not None:

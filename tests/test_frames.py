@@ -53,3 +53,48 @@ def test_a_datetime_index_is_seconds_from_the_first_and_bad_input_is_one_line(sd
         optional_module("no_such_module_dcjax", "X")
     with pytest.warns(DeprecationWarning, match="i_limit"):
         assert dcjax.Recording.from_dataframe(sd1.to_dataframe(), i_limit=2.0).limit == 2.0
+
+
+NOTEBOOK_MODEL = """
+from typing import ClassVar
+
+import dcjax
+
+
+class FirstOrder(dcjax.Model):
+    names: ClassVar = ("a", "b")
+    states: ClassVar = ("x",)
+    inputs: ClassVar = ("u",)
+
+    def vector_field(self, c, u, y):
+        return (-c["a"] * y[0] + c["b"] * u[0],)
+"""
+
+
+def test_a_model_defined_in_a_notebook_reloads_from_the_class_or_its_file(tmp_path, capsys):
+    """A class of `__main__` (a notebook's): the result names it, `load_result` says in one line
+    how to give it, and takes the class itself; `dcjax report --model FILE:Name` the file."""
+    import json
+
+    from dcjax import cli
+
+    space = {"__name__": "__main__"}
+    exec(compile(NOTEBOOK_MODEL, "<notebook cell>", "exec"), space)  # as a notebook defines it
+    model = space["FirstOrder"]()
+    t = np.arange(200) * 0.01
+    u = np.where(t < 1.0, 1.0, -0.5)
+    x = dcjax.simulate({"a": 2.0, "b": 3.0}, dcjax.Recording(t=t, u=u), model=model)[:, 0]
+    rec = dcjax.Recording(t=t, u=u, x=np.asarray(x), name="nb")
+    params = dcjax.Parameters([dcjax.Parameter("a", min=0.5, max=5), dcjax.Parameter("b", min=0.5, max=5)])
+    res = dcjax.fit(rec, model, params, search=dcjax.Search(runs=1, budget=280, polish=True))
+    path = tmp_path / "result.json"
+    res.to_json(path)
+    assert json.loads(path.read_text())["model"] == "__main__:FirstOrder"
+    with pytest.raises(ValueError, match=r"defined in a notebook or a script \(__main__\).*model='path/to/file.py:FirstOrder'"):
+        dcjax.load_result(path)
+    again = dcjax.load_result(path, model=model)
+    assert again.best_values == res.best_values and abs(again.best_values["a"] / 2.0 - 1) < 1e-6
+    (tmp_path / "first_order.py").write_text(NOTEBOOK_MODEL)
+    capsys.readouterr()
+    assert cli.main(["report", str(path), "--model", f"{tmp_path / 'first_order.py'}:FirstOrder"]) == 0
+    assert "[[Variables]]" in capsys.readouterr().out

@@ -259,3 +259,23 @@ def test_chains_split_over_two_devices():
     )
     out = on_devices(code, 2)
     assert out["devices"] == 2 and out["again"] and out["off"] == 0.0, out
+
+
+def test_sample_refuses_noise_free_data_in_one_line_and_a_constant_chain_still_plots(tmp_path, capsys):
+    """A fit of the noise-free SD1 (the README's): `dcjax sample` ends at once with one line (its
+    likelihood's noise scale is rounding); the corner plot draws a chain that never moves."""
+    from dcjax.analysis.plotting import corner
+    from dcjax.cli import main
+
+    truth = datasets.true_params("SD1")
+    x0 = ",".join(f"{n}={v!r}" for n, v in truth.items())
+    fit = ["fit", "SD1", "--runs", "1", "--budget", "140", "--x0", x0, "--polish", "--plots", "none", "--out", str(tmp_path / "f")]
+    assert main(fit) == 0
+    capsys.readouterr()
+    assert main(["sample", str(tmp_path / "f" / "result.json"), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.startswith("dcjax: error: the data look noise-free: the fitted noise of i_a is"), err
+    draws = np.stack([np.full((2, 50), 42.5), np.full((2, 50), 2.85e-16) + np.arange(50) * 1e-32], axis=-1)  # bare hist: "Too many bins"
+    post = Posterior(names=("Ra", "La"), draws=draws, optimum={"Ra": 42.5, "La": 2.85e-16}, rhat={}, ess_bulk={}, ess_tail={}, divergences=0,
+                     steps=1.0, acceptance=1.0, likelihood="Gaussian", noise={}, wall={}, seed=0)  # fmt: skip
+    assert corner(post, tmp_path / "corner.png").is_file()

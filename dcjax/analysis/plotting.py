@@ -136,6 +136,14 @@ def plot_residual_tests(validation, recording, inputs: tuple[str, ...], path: st
     return fig
 
 
+def _span(x: np.ndarray) -> tuple[float, float]:
+    """A histogram's range: the draws' own, widened where they are (nearly) constant (matplotlib's
+    bins cannot split a range of a few ulps)."""
+    lo, hi = float(np.min(x)), float(np.max(x))
+    pad = max(abs(lo), abs(hi), 1e-300) * 1e-9
+    return (lo, hi) if hi - lo > pad else (lo - pad, hi + pad)
+
+
 def corner(posterior, path: str | Path) -> Path:
     """Pairwise scatter and marginal histograms of a `Posterior`'s draws (all chains), the fit's
     optimum marked; written to `path` (a bare `Figure`, no pyplot)."""
@@ -152,7 +160,7 @@ def corner(posterior, path: str | Path) -> Path:
                 ax.set_axis_off()
                 continue
             if i == j:
-                ax.hist(d[:, i], bins=40, color="0.4")
+                ax.hist(d[:, i], bins=40, range=_span(d[:, i]), color="0.4")
                 ax.axvline(posterior.optimum[names[i]], color="r", lw=1)
             else:
                 ax.plot(d[:, j], d[:, i], ".", ms=1, color="0.3", alpha=0.3)

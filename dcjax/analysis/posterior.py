@@ -385,6 +385,7 @@ def sample(
         if not np.isfinite(float(p.log_density(x[k]))):
             raise ConfigError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
     noise = fit_noise(x, target, loss)
+    noise_free(target, noise)
     z0 = jnp.clip(space.to_unit(x), 0.0, 1.0)
     cov = _laplace(z0, target, noise, space, prior)
     k_init, k_warm, k_draw = jax.random.split(jax.random.key(int(seed)), 3)
@@ -427,6 +428,26 @@ def sample(
             "step_size": np.broadcast_to(np.asarray(params["step_size"], float)[:, None], np.shape(div)).copy(),
         },
     )
+
+
+NOISE_FREE = 1e-9  # a noise scale below this share of its channel's peak: rounding, not noise
+
+
+def noise_free(target: JointProblem, noise: NoiseModel) -> None:
+    """A one-line `ConfigError` where a channel's fitted noise scale is below `NOISE_FREE` of its
+    peak: the data are noise-free (or fitted to rounding), the likelihood is degenerate and its
+    posterior a point the sampler cannot explore."""
+    scale, active = np.asarray(noise.scale), np.asarray(noise.active)
+    for r, p in enumerate(target.problems):
+        peak = np.max(np.abs(np.asarray(p.y_meas)), axis=0)
+        share = scale[r] if p.loss.normalize == "peak" else scale[r] / peak  # the residuals are over the peak, or in units
+        for j, c in enumerate(p.model.outputs):
+            if active[r, j] > 0 and share[j] < NOISE_FREE:
+                raise ConfigError(
+                    f"the data look noise-free: the fitted noise of {c} is {share[j]:.2g} of its peak (rounding), so the likelihood's "
+                    "posterior is a point the sampler cannot explore; sample a fit of noisy recordings (dcjax.analysis.uncertainty "
+                    "gives the linearised errors)"
+                )
 
 
 @filter_jit

@@ -137,6 +137,13 @@ def builtin_name(record: Fields, field: str, default: str, builtin, argument: st
     assert spec is not None
     if spec.lower() in builtin:
         return spec.lower()
+    if spec.startswith("__main__:"):
+        name = spec.split(":", 1)[1]
+        raise ResultFileError(
+            f"{record.path}: {record.where}{field} {spec!r} was defined in a notebook or a script (__main__), which no other "
+            f"process can import: give the file that defines it, {argument}='path/to/file.py:{name}', or in Python the model "
+            f"itself ({name}(), as load_result's model argument)"
+        )
     raise ResultFileError(
         f"{record.path}: {record.where}{field} {spec!r} is not built in ({', '.join(builtin)}), and dcjax does not import code a "
         f"result file names: give it yourself as {argument}={spec!r}"

@@ -78,7 +78,7 @@ def test_a_model_defined_in_a_notebook_reloads_from_the_class_or_its_file(tmp_pa
 
     from dcjax import cli
 
-    space = {"__name__": "__main__"}
+    space: dict = {"__name__": "__main__"}
     exec(compile(NOTEBOOK_MODEL, "<notebook cell>", "exec"), space)  # as a notebook defines it
     model = space["FirstOrder"]()
     t = np.arange(200) * 0.01

@@ -71,6 +71,7 @@ class FirstOrder(dcjax.Model):
 """
 
 
+@pytest.mark.slow  # a CLI run
 def test_a_model_defined_in_a_notebook_reloads_from_the_class_or_its_file(tmp_path, capsys):
     """A class of `__main__` (a notebook's): the result names it, `load_result` says in one line
     how to give it, and takes the class itself; `dcjax report --model FILE:Name` the file."""

@@ -30,6 +30,7 @@ def record(path, seed: int, n: int = 800) -> tuple[str, np.ndarray, np.ndarray]:
 FIT = ["--hold", "u=zoh", "--nd", "8", "--runs", "1", "--budget", "3000", "--polish", "--initial", "th=fit"]
 
 
+@pytest.mark.slow  # a CLI fit and five validations: 8 s
 def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     a, _, _ = record(tmp_path / "a.csv", 1)
     b, t, u = record(tmp_path / "b.csv", 2)

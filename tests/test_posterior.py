@@ -261,6 +261,7 @@ def test_chains_split_over_two_devices():
     assert out["devices"] == 2 and out["again"] and out["off"] == 0.0, out
 
 
+@pytest.mark.slow  # a CLI run
 def test_sample_refuses_noise_free_data_in_one_line_and_a_constant_chain_still_plots(tmp_path, capsys):
     """A fit of the noise-free SD1 (the README's): `dcjax sample` ends at once with one line (its
     likelihood's noise scale is rounding); the corner plot draws a chain that never moves."""

@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import ConfigError, DataError
 from ..models import Model, get_model
 from .files import file_sha256
-from .recording import Recording, read_sidecar, trim_switch_on
+from .recording import Recording, channels_to_read, read_sidecar, trim_switch_on
 from .table import Table, read_table
 from .units import select_channels, unconverted_units
 
@@ -252,8 +252,7 @@ def load_recording(
     table = _table_of(path, read)
     meta = read_sidecar(path)
     consts = {**(meta.get("constants") or {}), **(read.constants or {})}
-    needed = tuple(c for c in m.channels if (c not in consts or c not in m.inputs) and (measured or c in m.inputs))
-    unmeasured = tuple(c for c in (*m.states, *m.outputs) if c not in needed)  # read where present: an initial state
+    needed, unmeasured = channels_to_read(m, consts, measured)  # unmeasured: read where present (an initial state)
     columns, units = dict(read.columns or {}), dict(read.units or {})
     if not measured:  # an output's mapped column the file lacks: not read
         columns = {c: v for c, v in columns.items() if c not in unmeasured or _has_column(table.columns, v)}

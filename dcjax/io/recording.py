@@ -331,6 +331,14 @@ def _index_seconds(index) -> np.ndarray | None:
     return None
 
 
+def channels_to_read(model, constants, measured: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(needed, optional): the model's channels a table must hold (an input given as a constant
+    aside; `measured=False`: the inputs alone) and those read where present (the states, for
+    their initial values, and the outputs not needed)."""
+    needed = tuple(c for c in model.channels if (c not in constants or c not in model.inputs) and (measured or c in model.inputs))
+    return needed, tuple(c for c in (*model.states, *model.outputs) if c not in needed)
+
+
 def recording_from_table(
     table, columns=None, units=None, model=None, name: str = "", limit=None, scale=None, dt=None, rate=None, constants=None,
     measured: bool = True,
@@ -358,8 +366,7 @@ def recording_from_table(
         raise DataError("table must be a DataFrame, a dict of arrays or a structured array")
     units = units if units is not None else attrs.get("units")
     consts = _constants(constants if constants is not None else attrs.get("constants") or {}, f"{name or attrs.get('name') or 'table'}: ")
-    needed = tuple(c for c in m.channels if (c not in consts or c not in m.inputs) and (measured or c in m.inputs))
-    optional = tuple(c for c in (*m.states, *m.outputs) if c not in needed)
+    needed, optional = channels_to_read(m, consts, measured)
     chans = select_channels(
         cols, needed, columns, units, m.quantities, scale=scale, dt=dt, rate=rate, inputs=tuple(m.inputs), optional=optional
     )

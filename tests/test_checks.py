@@ -138,7 +138,9 @@ def test_fit_png_of_a_joint_fit_stays_small_and_axes_carry_units(sd1, tmp_path):
     fig = many.plot(tmp_path / "fit.png")
     assert (tmp_path / "fit.png").stat().st_size <= 300_000
     labels = {ax.get_ylabel() for ax in fig.axes}
-    assert {"i_a (A)", "omega (rad/s)", "u_a (V)"} <= labels
+    assert {"i_a (A)", "omega (rad/s)", "residual i_a (A)"} <= labels and "u_a (V)" not in labels  # SD1's input is a constant
+    assert all(ax.lines for ax in fig.axes) and len(fig.axes) == 4 * 4 + 1  # no empty panel: 4 rows of 2 channels x 2, convergence
+    assert fig.axes[0].get_title() == "SD1: u_a = 220 V (constant); i_a"
     assert fig._suptitle is not None and "the first 4 of 16 recordings" in fig._suptitle.get_text()  # pyright: ignore
 
 

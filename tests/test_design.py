@@ -3,6 +3,7 @@ the independent NumPy integrator, the limits a design must respect, the predicte
 paper's step, the null directions, and the `dcjax design` command."""
 
 import json
+import re
 from typing import ClassVar
 
 import jax.numpy as jnp
@@ -119,7 +120,8 @@ def test_cli_design_writes_the_three_files(tmp_path, capsys):
     design = [*args, "--hold", "1e-3", "--criterion", "J,Tla,Tlb,Tlc", "--baseline", str(tmp_path / "coast.csv")]
     assert cli.main([*design, "--starts", "2", "--steps", "50", "--out", str(tmp_path / "d")]) == 0
     out = capsys.readouterr().out
-    assert "predicted relative std. errors" in out and "does not beat" not in out
+    assert "predicted relative std. errors" in out and "does not beat" not in out and "never reached" not in out
+    assert re.search(r"noise \(std\. dev\.\): i_a \S+ A, omega \S+ rad/s, (the fit's residuals|assumed: 1%)", out), out
     t, u = np.loadtxt(tmp_path / "d" / "input.csv", delimiter=",", skiprows=1).T
     assert len(t) == 501 and u.min() >= 0 and u.max() <= 220
     info = json.loads((tmp_path / "d" / "design.json").read_text())
@@ -129,3 +131,8 @@ def test_cli_design_writes_the_three_files(tmp_path, capsys):
         assert pred["design"][n]["stderr"] < pred["baseline coast"][n]["stderr"]
     assert (tmp_path / "d" / "design.png").stat().st_size > 0
     assert cli.main([*args, "--hold", "1", "--out", str(tmp_path / "e")]) == 2
+    reverse = [*args[:6], "--umin", "-220", "--umax", "-20", "--starts", "1", "--steps", "5", "--out", str(tmp_path / "r")]
+    assert cli.main(reverse) == 0  # the model was fitted at positive speeds only: driving it backwards is a warning
+    assert re.search(
+        r"warning: the designed input drives omega to -\S+ rad/s, a sign the fitted recording SD1 never reached", capsys.readouterr().out
+    )

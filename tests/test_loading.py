@@ -118,6 +118,8 @@ def test_daq_sd1_fits_like_sd1_and_the_commands_work(tmp_path, capsys):
     assert main(["simulate", str(res), "SD1", "--out", str(tmp_path / "s")]) == 0
     sim = np.genfromtxt(tmp_path / "s" / "simulated_SD1.csv", delimiter=",", names=True)
     np.testing.assert_allclose(sim["i_a_sim"], sd1.i_a, rtol=1e-6, atol=1e-9)
+    cells = [c for line in (tmp_path / "s" / "simulated_SD1.csv").read_text().splitlines()[1:] for c in line.split(",")]
+    assert all(c == repr(float(c)) for c in cells) and "0.0001" in cells  # plain numbers, lossless: 0.0001, not 0.00010000000000000000
     r = load_result(res)
     assert r.recording is not None and r.recording.name == "bench4" and len(r.recording) == len(sd1)
     assert "fit %" in str(r)

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.files import save_figure, strict_json, write_atomic, write_text
+from ..io.files import save_figure, strict_json, write_text
 from ..models import Model, get_model
+from ..numbers import csv_text
 from .design import Design
 from .plotting import channel_label
 
@@ -55,17 +56,7 @@ def write_design(design: Design, baselines: dict[str, Design], folder, model) ->
     folder.mkdir(parents=True, exist_ok=True)
     rec = design.recording
     columns = [c for c in m.inputs if c in rec.channels]  # designed and kept inputs (constants: design.json)
-    write_atomic(
-        folder / "input.csv",
-        lambda tmp: np.savetxt(
-            tmp,
-            np.column_stack([rec.t, *[rec[c] for c in columns]]),
-            delimiter=",",
-            header=",".join(["t", *columns]),
-            comments="",
-            fmt="%.10g",
-        ),
-    )
+    write_text(folder / "input.csv", csv_text(["t", *columns], np.column_stack([rec.t, *[rec[c] for c in columns]])))
 
     def errors(d: Design):
         return {k: {"stderr": d.stderr[k], "relative": d.relative_stderr()[k]} for k in d.free}

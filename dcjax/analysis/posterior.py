@@ -16,7 +16,7 @@ thousand steps. Chains start at the optimum, jittered by the Laplace approximati
 information of the noise model, plus 12 I for the uniform prior's variance 1/12 in z), whose
 covariance also seeds the dense mass matrix of Stan's window adaptation
 (`blackjax.window_adaptation`). Diagnostics are Vehtari et al. (2021)'s rank-normalised split R-hat,
-bulk and tail ESS (`blackjax.diagnostics`). blackjax rather than numpyro: dcjax already has a log
+(`blackjax.diagnostics`) and bulk and tail ESS (`sample_size`: Stan's and ArviZ's estimator). blackjax rather than numpyro: dcjax already has a log
 density as a pure JAX function of a vector, which is blackjax's whole interface (no model DSL), and
 its kernels map or vmap over chains."""
 
@@ -42,6 +42,7 @@ from ..models.space import Space
 from ..simulation.joint import JointProblem
 from ..simulation.likelihood import NoiseModel, fit_noise, likelihood_target, whitened_residuals
 from ..simulation.losses import Loss
+from . import sample_size
 from .reflection import reflecting_verlet
 
 # The step size's target acceptance in the warm-up (Stan's adapt_delta; blackjax's default 0.8).
@@ -401,8 +402,10 @@ def sample(
     t1 = time.perf_counter()
     pos, (div, steps, acc, energy, depth, lp) = jax.block_until_ready(draw(*args))
     t2 = time.perf_counter()
-    free, rhat, ess_bulk, ess_tail = map(np.asarray, _diagnostics(pos, space, white))
+    free, rhat = map(np.asarray, _diagnostics(pos, space, white))
     names = space.free_names
+    ess_bulk = [sample_size.ess_bulk(free[..., k]) for k in range(len(names))]
+    ess_tail = [sample_size.ess_tail(free[..., k]) for k in range(len(names))]
     return Posterior(
         names=names,
         draws=free,
@@ -452,12 +455,12 @@ def noise_free(target: JointProblem, noise: NoiseModel) -> None:
 
 @filter_jit
 def _diagnostics(pos, space: Space, white: Whitening):
-    """The draws' free entries in physical units, (chains, draws, F), their split R-hat (NaN for one
-    chain), bulk and tail ESS: one compiled program (blackjax's diagnostics run eagerly compile
-    some 200 small ones on each new shape)."""
+    """The draws' free entries in physical units, (chains, draws, F), and their rank-normalised split
+    R-hat (NaN for one chain): one compiled program (blackjax's diagnostics run eagerly compile some
+    200 small ones on each new shape)."""
     free = jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos)[..., jnp.asarray(space.free)]
     rhat = diag.rhat(free) if free.shape[0] > 1 else jnp.full(free.shape[-1], jnp.nan)
-    return free, jnp.atleast_1d(rhat), jnp.atleast_1d(diag.ess_bulk(free)), jnp.atleast_1d(diag.ess_tail(free))
+    return free, jnp.atleast_1d(rhat)
 
 
 def _inside(white: Whitening, theta):

@@ -3,6 +3,13 @@ goodness-of-fit figures it uses (fit % as MATLAB's `compare`: 100 (1 - NRMSE))."
 
 import numpy as np
 
+from ..html_table import html_table
+from ..numbers import to_uncertainty
+
+AGREEING_RUNS = 2.0  # runs whose OF is within this factor of the best one found the same optimum
+FLOAT_PRECISION = 1e-12  # relative: no fit pins a parameter closer than this in float64
+ONE_RUN_PRECISION = 1e-4  # relative, nothing else known: six significant digits
+
 
 def fit_percent(measured: np.ndarray, simulated: np.ndarray) -> float:
     """100 (1 - ||y - y_sim|| / ||y - mean(y)||): 100 is a perfect fit, 0 no better than the mean."""
@@ -28,6 +35,79 @@ def stop_summary(result) -> str:
     return (
         f"{int(conv.sum())}/{len(conv)} runs after {float(np.mean(result.fes[conv])):,.0f} of {result.search.budget:,} FEs (mean; {rule})"
     )
+
+
+def value_uncertainties(result) -> dict[str, tuple[float, str]]:
+    """Per free parameter, the uncertainty its printed digits keep two significant digits of, and
+    where it comes from: its standard error ("std. error", where `result.uncertainty()` gave a
+    finite one), else the standard deviation of the runs that agree with the best ("runs"; OF
+    within 2x of the best), else six significant digits ("one run"); never below 1e-12 relative."""
+    u = getattr(result, "uncertainties", None)
+    of = np.asarray(result.run_of, dtype=float)
+    agree = np.isfinite(of) & (of <= AGREEING_RUNS * np.nanmin(of) + 1e-300) if np.isfinite(of).any() else of > 0
+    spread = np.std(np.asarray(result.run_params)[agree], axis=0, ddof=1) if agree.sum() >= 2 else None
+    out = {}
+    for k, n in enumerate(result.names):
+        v = abs(result.best_values[n])
+        if n in result.fixed:
+            continue
+        if u is not None and n in u.se and np.isfinite(u.se[n]) and u.se[n] > 0:
+            out[n] = (max(float(u.se[n]), FLOAT_PRECISION * v), "std. error")
+        elif spread is not None:
+            out[n] = (max(float(spread[k]), FLOAT_PRECISION * v), "runs")
+        else:
+            out[n] = (ONE_RUN_PRECISION * v, "one run")
+    return out
+
+
+def shown_values(result) -> dict[str, str]:
+    """Every parameter's value as printed: to the digits `value_uncertainties` justifies; a fixed
+    one as given (its shortest text)."""
+    errors = value_uncertainties(result)
+    return {n: to_uncertainty(v, errors[n][0]) if n in errors else repr(float(v)) for n, v in result.best_values.items()}
+
+
+def digits_note(result) -> str:
+    """One line saying where the printed digits come from."""
+    sources = {s for _, s in value_uncertainties(result).values()}
+    agree = int(np.sum(np.asarray(result.run_of) <= AGREEING_RUNS * np.nanmin(result.run_of) + 1e-300))
+    said = {
+        "std. error": "their standard error",
+        "runs": f"the spread of the {agree} runs that agree with the best, OF within 2x",
+        "one run": "six significant digits (one run, no standard error: --uncertainty or --runs 2 tell more)",
+    }
+    first, *rest = (said[s] for s in said if s in sources)
+    head = first if first.startswith("six") else "two significant digits of " + first
+    return "values to " + head + "".join(f"; else {r if r.startswith('six') else 'of ' + r}" for r in rest) + "; all 17 in result.json"
+
+
+def fit_html(result) -> str:
+    """A notebook's view of a fit: model, method, best OF and status in the caption; per parameter
+    its value (`shown_values`' digits), the uncertainty they keep and where it comes from, unit,
+    range and flags."""
+    errors, shown = value_uncertainties(result), shown_values(result)
+    at_bound = set(result.at_bound())
+    units = {n: p.unit for n, p in result.params.items()}
+    rows = []
+    for k, n in enumerate(result.names):
+        e, source = errors.get(n, (None, "fixed"))
+        flag = "fixed" if n in result.fixed else "at bound" if n in at_bound else ""
+        rows.append((n, shown[n], "" if e is None or source == "one run" else f"{e:.2g}", source, units.get(n, ""),
+                     f"{result.bounds.lower[k]:.3g}", f"{result.bounds.upper[k]:.3g}", flag))  # fmt: skip
+    s = result.settings
+    caption = (
+        f"{result.model.name} fit: {s['method']}, {s['runs']} runs x {s['budget']} FEs; OF {result.of:.4e}; "
+        f"{'success' if result.success else 'failed'} ({result.message})"
+    )
+    return html_table(caption, ("param", "value", "+/-", "from", "unit", "lower", "upper", ""), rows)
+
+
+def relative_error(value: float, error: float) -> str:
+    """' (0.31 %)': the error over the value's size to two digits; ' (> 1000 %)' past ten times it."""
+    if not value:
+        return ""
+    rel = 100 * error / abs(value)
+    return " (> 1000 %)" if rel > 1000 else f" ({rel:.2g} %)"
 
 
 def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
@@ -87,25 +167,27 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
     params = result.params
     width = max(len(n) for n in names)
     recs = [r.name for r in result.recordings] or (s.get("recording") if isinstance(s.get("recording"), list) else [])
+    shown = shown_values(result)
     for n in names:
         v = result.best_values[n]
         unit = params[n].unit
-        text = f"    {n + ':':<{width + 1}} {v: .10g}"
+        text = f"    {n + ':':<{width + 1}} {shown[n]:>{0 if shown[n].startswith('-') else 1}}"
         if n in result.fixed:
             text += " (fixed)"
         elif u is not None:
             se = u.se[n]
-            rel = f" ({100 * se / abs(v):.2f}%)" if v else ""
-            text += f" +/- {se:.3g}{rel}" if np.isfinite(se) else " +/- -"
+            text += f" +/- {se:.2g}{relative_error(v, se)}" if np.isfinite(se) else " +/- -"
         text += f" {unit}" if unit else ""
-        if n in at_bound:
+        flagged = u is not None and n not in result.fixed and u.verdict[n] != "well determined"
+        if n in at_bound and not (flagged and u.reason[n] == "at a bound"):  # pyright: ignore[reportOptionalMemberAccess]
             text += "  [at bound]"
-        if u is not None and n not in result.fixed and u.verdict[n] != "well determined":
-            text += f"  [{u.verdict[n]}: {u.reason[n]}]"
+        if flagged:
+            text += f"  [{u.verdict[n]}: {u.reason[n]}]"  # pyright: ignore[reportOptionalMemberAccess]
         if n.endswith("]") and "[" in n:
             k = int(n[n.rindex("[") + 1 : -1])
             text += f"  ({recs[k]})" if k < len(recs) else ""
         lines.append(text)
+    lines.append(f"    ({digits_note(result)})")
     if u is None:
         lines.append("    (standard errors: result.uncertainty())")
     else:

@@ -22,6 +22,7 @@ from ..compiling import filter_jit
 from ..errors import ConfigError
 from ..models.bounds import Bounds
 from ..models.space import Space, make_space
+from ..numbers import to_uncertainty
 from ..simulation.joint import JointProblem, joint_problem
 from ..simulation.problem import Problem
 from .sandwich import sandwich
@@ -70,12 +71,14 @@ class Uncertainty:
         for n in self.params:
             v, s = self.params[n], self.se[n]
             lo, hi = self.ci95[n]
-            if np.isfinite(s):
+            if np.isfinite(s) and s > 0:  # the value and the interval to two significant digits of the error
                 rel = s / abs(v) if v else np.inf
-                cols = f"{s:11.3g} {rel:8.1e} [{lo:13.6g}, {hi:13.6g}]"
+                cols = f"{s:11.2g} {rel:8.1e} [{to_uncertainty(lo, s):>13}, {to_uncertainty(hi, s):>13}]"
+                value = to_uncertainty(v, s)
             else:
                 cols = f"{'-':>11} {'-':>8} {'-':>29}"
-            lines.append(f"{n:>{w}} {v:13.6g} {cols}  {self.verdict[n]} ({self.reason[n]})")
+                value = f"{v:.6g}"
+            lines.append(f"{n:>{w}} {value:>13} {cols}  {self.verdict[n]} ({self.reason[n]})")
         lines += self.combination_lines()
         if self.approximation:
             lines.append(f"note: {self.approximation}")
@@ -86,7 +89,8 @@ class Uncertainty:
         combinations (products of powers) along which the data cannot move are."""
         if not self.null_names:
             return []
-        out = [f"null direction: {', '.join(self.null_names)} are not determined, each alone (no interval)"]
+        verb = "is" if len(self.null_names) == 1 else "are"
+        out = [f"null direction: {', '.join(self.null_names)} {verb} not determined, each alone (no interval)"]
         if self.combinations:
             out.append("determined combinations:")
             out += [f"  {k} = {v:.9g} (relative std. error {r:.1e})" for k, (v, r) in self.combinations.items()]

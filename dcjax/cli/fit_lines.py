@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import fit_findings
-from ..analysis.report import stop_summary
+from ..analysis.report import digits_note, shown_values, stop_summary, value_uncertainties
 from ..fitting.result import FitResult
 from ..fitting.vector import base_name, unit_of
 from ..io.recording import Recording
@@ -80,14 +80,21 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
             + (f"; compared: {', '.join(o.measure)}" if o.measure is not None else "")
         )
     w = max(6, *(len(n) for n in result.names))
+    shown, errors = shown_values(result), value_uncertainties(result)
+    pm = any(source != "one run" for _, source in errors.values())
+    wv = max(10, *(len(t) for t in shown.values()))
     print(
-        f"{'param':>{w}} {'unit':>7} {'identified':>22} {'lower':>10} {'upper':>10}"
+        f"{'param':>{w}} {'unit':>7} {'identified':>{wv}}"
+        + (f" {'+/-':>8}" if pm else "")
+        + f" {'lower':>10} {'upper':>10}"
         + (f" {'true':>14} {'rel. error':>11}" if truth else "")
     )
     at_bound = set(result.at_bound())
     for k, name in enumerate(result.names):
         v = result.best_values[name]
-        line = f"{name:>{w}} {unit_of(name, model):>7} {v:>22.15g} {b.lower[k]:>10.3g} {b.upper[k]:>10.3g}"
+        e, source = errors.get(name, (0.0, "fixed"))
+        error = f" {e:>8.2g}" if source not in ("one run", "fixed") else f" {'':>8}"
+        line = f"{name:>{w}} {unit_of(name, model):>7} {shown[name]:>{wv}}{error if pm else ''} {b.lower[k]:>10.3g} {b.upper[k]:>10.3g}"
         if truth and base_name(name) in truth:
             t = truth[base_name(name)]
             line += f" {t:>14.6g} {abs(v - t) / abs(t) if t else abs(v):>11.2e}"
@@ -96,6 +103,7 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
         elif name in at_bound:
             line += "  [at bound]"
         print(line)
+    print(digits_note(result))
     st = result.stats
     print(f"OF best {st['best']:.4e}  worst {st['worst']:.4e}  mean {st['mean']:.4e}  std {st['std']:.4e}")
     if truth:  # simulated, noise-free data: an exact fit means something

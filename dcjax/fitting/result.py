@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..analysis.plotting import plot_result
-from ..analysis.report import fit_report
+from ..analysis.report import fit_html, fit_report
 from ..errors import ConfigError
 from ..io.files import strict_json, write_text
 from ..io.recording import Recording, as_recording
@@ -455,6 +455,10 @@ class FitResult:
         from ..analysis.held_out import validate  # lazy: the analysis a user asks for
 
         return validate(self, recordings, initial=initial, skip=skip)
+
+    def _repr_html_(self) -> str:
+        """A notebook's table of the fit (`dcjax.analysis.report.fit_html`)."""
+        return fit_html(self)
 
     def to_dataframe(self):
         """The parameter table (`params.to_dataframe()`: value, stderr after `uncertainty()`,

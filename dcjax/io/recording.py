@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..extras import optional_module
+from ..html_table import html_table
 from ..models import get_model
 from .units import select_channels
 
@@ -160,6 +161,17 @@ class Recording:
 
     def __repr__(self) -> str:
         return f"Recording(name={self.name!r}, n={len(self)}, channels={list(self.channels)}, limit={self.limit})"
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: per channel its first value, range and mean; time's span and step."""
+        t = self.t
+        step = f", step {float(np.median(np.diff(t))):.3g} s" if len(t) > 1 else ""
+        caption = f"Recording {self.name!r}: {len(self)} samples, t {t[0]:g} .. {t[-1]:g} s{step}" + (
+            f", limit {self.limit:g}" if self.limit is not None else ""
+        )
+        rows = [(c, f"{v[0]:.6g}", f"{v.min():.6g}", f"{v.max():.6g}", f"{v.mean():.6g}") for c, v in self.channels.items()]
+        rows += [(c, f"{v:.6g}", "", "", "constant") for c, v in self.constants.items()]
+        return html_table(caption, ("channel", "first", "min", "max", "mean"), rows)
 
     def _where(self) -> str:
         name = object.__getattribute__(self, "name")

@@ -21,6 +21,8 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..extras import optional_module
+from ..html_table import html_table
+from ..numbers import to_uncertainty
 from .priors import Prior, prior_from_spec
 
 
@@ -287,15 +289,28 @@ class Parameters(Mapping[str, Parameter]):
             out.append(Parameter(name=n, **f))
         return cls(out)
 
+    def _rows(self) -> list[tuple[str, str, str, str, str, str, str, str]]:
+        """name, value (to two significant digits of its std. error where known, else 6), std. error,
+        relative, min, max, vary, unit."""
+        out = []
+        for n, p in self._items.items():
+            known = p.stderr is not None and math.isfinite(p.stderr) and p.stderr > 0
+            v = "-" if p.value is None else to_uncertainty(p.value, p.stderr) if known else f"{p.value:.6g}"  # pyright: ignore[reportArgumentType]
+            se = "-" if p.stderr is None else f"{p.stderr:.2g}"
+            rel = p.relative_stderr
+            r = "-" if rel is None else ("> 1000%" if rel > 10 else f"{100 * rel:.2g}%") if math.isfinite(rel) else "inf"
+            out.append((n, v, se, r, f"{p.min:.4g}", f"{p.max:.4g}", str(p.vary), p.unit))
+        return out
+
     def table(self) -> str:
         """A fixed-width table: value, std. error, range, vary, unit."""
         lines = [f"{'name':>6} {'value':>13} {'stderr':>10} {'rel.':>8} {'min':>11} {'max':>11} {'vary':>5} unit"]
-        for n, p in self._items.items():
-            v = "-" if p.value is None else f"{p.value:.6g}"
-            se = "-" if p.stderr is None else f"{p.stderr:.3g}"
-            rel = p.relative_stderr
-            r = "-" if rel is None else f"{100 * rel:.1f}%" if math.isfinite(rel) else "inf"
-            lines.append(f"{n:>6} {v:>13} {se:>10} {r:>8} {p.min:>11.4g} {p.max:>11.4g} {str(p.vary):>5} {p.unit}")
+        for n, v, se, r, lo, hi, vary, unit in self._rows():
+            lines.append(f"{n:>6} {v:>13} {se:>10} {r:>8} {lo:>11} {hi:>11} {vary:>5} {unit}")
         return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        """The table for a notebook (`table`'s columns)."""
+        return html_table(f"Parameters ({len(self)})", ("name", "value", "stderr", "rel.", "min", "max", "vary", "unit"), self._rows())
 
     __str__ = table

@@ -4,9 +4,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...analysis.design import design_input, evaluate_input
+from ...analysis.design import DEFAULT_NOISE, design_input, evaluate_input
 from ...analysis.design_files import noise_from_fit, scales_from_fit, write_design
 from ...errors import ConfigError
+from ...io.units import SI_UNITS
 from ..common import add_output_options, add_result_options, saved_result
 from ..output import announce, output_folder
 from ..values import named_numbers, named_ranges, names
@@ -77,8 +78,14 @@ def run(args) -> int:
     res = saved_result(args)
     m = res.model
     noise = args.noise or None
+    source = "given (--noise)"
     if noise is None:
         noise = noise_from_fit(res)
+        source = (
+            "the fit's residuals (rms)"
+            if noise is not None
+            else f"assumed: {DEFAULT_NOISE:.0%} of each channel's peak under a full step (the fit left no residuals; --noise gives yours)"
+        )
     rec = res.recording
     if args.limit is not None and not m.has_limit:
         raise ConfigError(f"--limit: model {m.name} clamps no state (it has no Model.limited_state or clamp of its own)")
@@ -135,7 +142,9 @@ def run(args) -> int:
         + (f"; kept as recording {rec.name}: {', '.join(kept)}" if kept and rec is not None else "")
         + (f"; constants {', '.join(f'{c}={v:g}' for c, v in consts.items())}" if consts else "")
     )
-    print("noise: " + ", ".join(f"{c} {v:.3g}" for c, v in design.noise.items()))
+    print("noise (std. dev.): " + ", ".join(f"{c} {v:.3g}{_unit(m, c)}" for c, v in design.noise.items()) + f", {source}")
+    for line in _other_sign(design, rec, m, names):
+        print(line)
     width = max(22, *(len(k) + 1 for k in baselines))
     print(f"{'param':>6} {'design':>12}" + "".join(f" {k:>{width}}" for k in baselines) + "   (predicted relative std. errors)")
     for n in design.free:
@@ -153,6 +162,34 @@ def run(args) -> int:
             print(f"note: the design does not beat {k} in {', '.join(worse)} (no profile of this form found that does)")
     print("wrote " + ", ".join(str(f) for f in written))
     return 0
+
+
+def _unit(m, c: str) -> str:
+    unit = SI_UNITS.get(m.quantities.get(c, ""), "")
+    return f" {unit}" if unit else ""
+
+
+def _other_sign(design, rec, m, designed) -> list[str]:
+    """A warning per output that the designed input drives to the sign the fitted recording never
+    reached (beyond 5 % of its peak): the model was fitted on one side only (a friction term that does
+    not reverse with the direction of motion is wrong on the other)."""
+    if rec is None:
+        return []
+    out = []
+    for c in m.outputs:
+        if c not in rec.channels:
+            continue
+        seen, y = np.asarray(rec[c]), np.asarray(design.recording[c])
+        margin = 0.05 * float(np.max(np.abs(seen)))
+        far = float(y.min()) if seen.min() >= 0 and y.min() < -margin else float(y.max()) if seen.max() <= 0 and y.max() > margin else None
+        if far is not None:
+            out.append(
+                f"warning: the designed input drives {c} to {far:.3g}{_unit(m, c)}, a sign the fitted recording {rec.name} never reached "
+                f"({seen.min():.3g} .. {seen.max():.3g}): the model was fitted on one side only (a friction term that does not reverse "
+                f"with the direction of motion is wrong on the other); keep the input on one side (--range {designed[0]}=LO:HI) or fit "
+                "a recording of both"
+            )
+    return out
 
 
 def _percent(v: float) -> str:

@@ -1,6 +1,7 @@
 """`dcjax sample`: posterior draws of a saved result's parameters (NUTS through the simulator)."""
 
 from ...analysis.plotting import corner
+from ...fitting.vector import unit_of
 from ...io.files import file_sha256
 from ..common import add_output_options, add_result_options, saved_result
 from ..output import announce, output_folder
@@ -40,7 +41,7 @@ def run(args) -> int:
         print(post.table(u.intervals(post.names)))
         announce(folder)
         post.save(out / "posterior.npz", result_sha256=file_sha256(args.result))
-        corner(post, out / "corner.png")
+        corner(post, out / "corner.png", units={n: unit_of(n, res.model) for n in post.names})
     bad = [n for n in post.names if not post.rhat[n] <= 1.01 or not post.ess_bulk[n] >= 400]
     if bad:
         print(

@@ -4,8 +4,9 @@ the file's own units where it was read with units), and a plot."""
 
 import numpy as np
 
-from ...io.files import write_atomic
+from ...io.files import write_text
 from ...io.units import unit_factor
+from ...numbers import csv_text
 from ..common import Loader, add_data_options, add_output_options, add_result_options, load_like_fit, saved_result
 from ..output import announce, file_names, output_folder
 
@@ -49,9 +50,7 @@ def run(args) -> int:
     table = np.column_stack([np.asarray(v, float) / factors.get(c, 1.0) for _, c, v in named])
     with output_folder(args, lambda f: [f / f"{stem}.csv"], f"an earlier {stem}.csv") as folder:
         out = announce(folder)
-        path = write_atomic(
-            out / f"{stem}.csv", lambda tmp: np.savetxt(tmp, table, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
-        )
+        path = write_text(out / f"{stem}.csv", csv_text(cols, table))  # plain numbers: 0.0324, not 0.032399999999999998
         res.plot(out / f"{stem}.png", recordings=[rec], convergence=False)
     if factors:
         load = rec.metadata["source"]["load"]

@@ -118,8 +118,9 @@ def plot_result(result, path: str | Path | None = None, ax=None, recordings=None
             a.legend()
     if history:
         a = fig.add_subplot(grid[:, ncols - 1])
+        linear = bool(np.any(np.asarray(result.history)[np.isfinite(result.history)] <= 0))  # a -log L can be negative
         for h in result.history:
-            a.semilogy(np.arange(1, h.size + 1), h, lw=0.7)
+            (a.plot if linear else a.semilogy)(np.arange(1, h.size + 1), h, lw=0.7)
         a.set(
             xlabel="iteration", ylabel="best OF", title=f"convergence ({len(result.history)} run{'s' if len(result.history) > 1 else ''})"
         )

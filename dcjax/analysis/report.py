@@ -81,6 +81,44 @@ def digits_note(result) -> str:
     return "values to " + head + "".join(f"; else {r if r.startswith('six') else 'of ' + r}" for r in rest) + "; all 17 in result.json"
 
 
+def _observation_lines(result) -> list[str]:
+    """The report's lines of the observation beyond the paper's terms."""
+    m, lines = result.model, []
+    obs = getattr(result, "observation", None)
+    if obs is not None and not obs.plain:
+        norm = (
+            "over each channel's peak"
+            if obs.loss.normalize == "peak"
+            else "raw units" + (", pooled by samples" if len(result.recordings) > 1 else "")
+        )
+        if obs.focus == "prediction":
+            lines.append(f"    focus              = prediction: {predictor_summary(obs, m)}")
+        else:
+            lines.append(f"    loss               = {obs.loss.spec} ({norm})")
+        if obs.initial:
+            lines.append(f"    initial state      = {', '.join(f'{k}={v}' for k, v in obs.initial.items())}")
+        if obs.offsets or obs.delays:
+            lines.append(
+                "    sensors            = " + ", ".join([*(f"offset on {c}" for c in obs.offsets), *(f"delay of {c}" for c in obs.delays)])
+            )
+    return lines
+
+
+def predictor_summary(observation, model) -> str:
+    """`EKF (innovations' -log L / N); process noise q_omega fitted, i_a 0; sensor noise fitted`."""
+    states, outputs = observation.fitted_noise(model)
+    q = [f"{k} {v:g}" for k, v in observation.process.items() if v != "fit"]
+    r = [f"{k} {v:g}" for k, v in observation.measurement.items() if v != "fit"]
+    fitted = lambda names, prefix: ", ".join(f"{prefix}_{n}" for n in names)
+    return (
+        "EKF (the innovations' -log L / N)"
+        + (f"; process noise {fitted(states, 'q')} fitted" if states else "")
+        + (f"; process noise {', '.join(q)}" if q else "")
+        + (f"; sensor noise {fitted(outputs, 'r')} fitted" if outputs else "")
+        + (f"; sensor noise {', '.join(r)}" if r else "")
+    )
+
+
 def fit_html(result) -> str:
     """A notebook's view of a fit: model, method, best OF and status in the caption; per parameter
     its value (`shown_values`' digits), the uncertainty they keep and where it comes from, unit,
@@ -122,24 +160,12 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
     lines += [
         "[[Fit Statistics]]",
         f"    method             = {s['method']}, {s['integrator']}, ND = {s['nd']}",
-        f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}" + (", LM polish" if s.get("polish") else ""),
+        f"    runs x FEs         = {s['runs']} x {s['budget']}, seed {s['seed']}"
+        + ((", BFGS polish" if getattr(result, "prediction", False) else ", LM polish") if s.get("polish") else ""),
     ]
     if s.get("stop"):
         lines.append(f"    converged          = {stop_summary(result)}")
-    obs = getattr(result, "observation", None)
-    if obs is not None and not obs.plain:
-        norm = (
-            "over each channel's peak"
-            if obs.loss.normalize == "peak"
-            else "raw units" + (", pooled by samples" if len(result.recordings) > 1 else "")
-        )
-        lines.append(f"    loss               = {obs.loss.spec} ({norm})")
-        if obs.initial:
-            lines.append(f"    initial state      = {', '.join(f'{k}={v}' for k, v in obs.initial.items())}")
-        if obs.offsets or obs.delays:
-            lines.append(
-                "    sensors            = " + ", ".join([*(f"offset on {c}" for c in obs.offsets), *(f"delay of {c}" for c in obs.delays)])
-            )
+    lines += _observation_lines(result)
     for rec in result.recordings:
         consts = ", constants " + ", ".join(f"{k}={v:g}" for k, v in rec.constants.items()) if rec.constants else ""
         lines.append(f"    data               = {rec.name} ({len(rec)} samples, t {rec.t[0]:g}..{rec.t[-1]:g} s{consts})")
@@ -150,8 +176,9 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
     lines.append(f"    # fitness evals    = {result.nfev}")
     lines.append(f"    # data points      = {result.ndata}")
     lines.append(f"    # variables        = {result.nvarys}")
-    lines.append(f"    chi-square         = {result.chisqr:.6e}")
-    lines.append(f"    reduced chi-square = {result.redchi:.6e}")
+    if not getattr(result, "prediction", False):
+        lines.append(f"    chi-square         = {result.chisqr:.6e}")
+        lines.append(f"    reduced chi-square = {result.redchi:.6e}")
     lines.append(f"    Akaike info crit   = {result.aic:.4f}")
     lines.append(f"    Bayesian info crit = {result.bic:.4f}")
     lines.append(f"    success            = {result.success} ({result.message})")

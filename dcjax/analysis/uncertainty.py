@@ -24,6 +24,7 @@ from ..models.bounds import Bounds
 from ..models.space import Space, make_space
 from ..numbers import to_uncertainty
 from ..simulation.joint import JointProblem, joint_problem
+from ..simulation.objectives import objective
 from ..simulation.problem import Problem
 from .sandwich import sandwich
 
@@ -168,11 +169,9 @@ def uncertainty(
     names = space.names
     x = np.asarray(x, dtype=np.float64)
     fidx = np.array(space.free)
-    r, jac = residual_jacobian(x, target, None, fidx)
-    m, p = jac.shape
-    dof = max(m - p, 1)
-    s2 = float(r @ r) / dof
     width = np.asarray(space.upper - space.lower)
+    jac, dof, s2 = _curvature(x, target, fidx, width)
+    p = jac.shape[1]
     xf = x[fidx]
     jz = jac * width  # d r / d z
     u, sv, vt = np.linalg.svd(jz, full_matrices=False)
@@ -234,6 +233,44 @@ def uncertainty(
         null_names=tuple(free_names[k] for k in null_idx),
         combinations=combos,
     )
+
+
+def _curvature(x, target: JointProblem, fidx, width) -> tuple[np.ndarray, int, float]:
+    """(J, dof, s2): s2 (J'J)^-1 is the covariance. The residuals' Jacobian and their variance; a
+    prediction-error fit's likelihood Hessian as J'J (`likelihood_root`) with s2 = 1."""
+    if any(p.predictor.filters for p in target.problems):
+        jac, samples = likelihood_root(x, target, fidx, width)
+        return jac, max(samples - jac.shape[1], 1), 1.0
+    r, jac = residual_jacobian(x, target, None, fidx)
+    dof = max(jac.shape[0] - jac.shape[1], 1)
+    return jac, dof, float(r @ r) / dof
+
+
+def likelihood_root(x: np.ndarray, target: JointProblem, free: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, int]:
+    """(A, M) with A'A the Hessian of the negative log-likelihood (sum over the recordings of N_r
+    OF_r, a prediction-error fit's innovations' likelihood) in the free parameters (A = Lambda^1/2
+    V' / width from the Hessian's eigenvectors in bound-scaled coordinates, negative curvature
+    clipped), so that the Jacobian analysis above gives its inverse as the covariance; M the
+    measured values (samples x outputs)."""
+    hz = np.asarray(_nll_hessian(jnp.asarray(x), jnp.asarray(free), jnp.asarray(width), target))
+    lam, vecs = np.linalg.eigh(0.5 * (hz + hz.T))
+    order = np.argsort(lam)[::-1]
+    root = np.sqrt(np.clip(lam[order], 0.0, None))[:, None] * vecs[:, order].T
+    samples = sum(int(p.n if p.mask is None else np.sum(np.asarray(p.mask))) * len(p.model.outputs) for p in target.problems)
+    return root / width, samples
+
+
+@filter_jit
+def _nll_hessian(x: jax.Array, free: jax.Array, width: jax.Array, target: JointProblem):
+    def nll(z):
+        xz = x.at[free].set(x[free] + width * z)
+        total = 0.0
+        for r, p in enumerate(target.problems):
+            n = p.n if p.mask is None else jnp.sum(p.mask)
+            total = total + n * objective(target.model_x(xz, r), p, target.adjustments(xz, r))
+        return total
+
+    return jax.hessian(nll)(jnp.zeros(free.shape[0], x.dtype))
 
 
 def _sandwich_z(x, robust: JointProblem, fidx, width, basis, fallback):

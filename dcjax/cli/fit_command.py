@@ -184,6 +184,27 @@ def _add_experiment_arguments(f: argparse.ArgumentParser) -> None:
         default=(),
         help="inputs with a free delay delay_IN in seconds (range 0..10 samples; --bound delay_IN=LO:HI), e.g. for the DC motor u_a",
     )
+    g.add_argument(
+        "--focus",
+        default="simulation",
+        choices=["simulation", "prediction"],
+        help="simulation (default: output error, the open-loop simulation compared, the paper's) or prediction (prediction "
+        "error: an extended Kalman filter's innovations' likelihood, for disturbances inside the loop; its noise is "
+        "fitted: q_STATE, r_OUTPUT on log scales)",
+    )
+    g.add_argument(
+        "--process-noise",
+        type=mapping,
+        default={},
+        help="with --focus prediction: a state's process noise intensity (unit^2/s) or fit, STATE=VALUE|fit pairs (default fit "
+        "for a measured state, else 0), e.g. for the DC motor i_a=0,omega=fit",
+    )
+    g.add_argument(
+        "--measurement-noise",
+        type=mapping,
+        default={},
+        help="with --focus prediction: a sensor's noise std. dev. or fit, OUTPUT=VALUE|fit pairs (default fit), e.g. i_a=0.01",
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -238,7 +259,17 @@ class FitCommand:
             if args.validate
             else None
         )
-        observation = Observation(get_loss(args.loss, args.normalize), args.initial, args.offset, args.delay, args.measure, args.hold)
+        observation = Observation(
+            get_loss(args.loss, args.normalize),
+            args.initial,
+            args.offset,
+            args.delay,
+            args.measure,
+            args.hold,
+            args.focus,
+            args.process_noise,
+            args.measurement_noise,
+        )
         model = get_model(args.model)
         model = observation.check(model).observed(model)  # --measure: the compared states
         if args.weights is not None and len(args.weights) != len(model.outputs):

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import fit_findings
-from ..analysis.report import digits_note, shown_values, stop_summary, value_uncertainties
+from ..analysis.report import digits_note, predictor_summary, shown_values, stop_summary, value_uncertainties
 from ..fitting.result import FitResult
 from ..fitting.vector import base_name, unit_of
 from ..io.recording import Recording
@@ -75,7 +75,11 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
     o = result.observation
     if not o.plain:
         print(
-            f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"
+            (
+                f"  focus prediction: {predictor_summary(o, model)}"
+                if o.focus == "prediction"
+                else f"  loss {o.loss.spec} ({'normalised by each channel' + chr(39) + 's peak' if o.loss.normalize == 'peak' else 'raw units'})"
+            )
             + (f"; initial {', '.join(f'{k}={v}' for k, v in o.initial.items())}" if o.initial else "")
             + (f"; compared: {', '.join(o.measure)}" if o.measure is not None else "")
         )

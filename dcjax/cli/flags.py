@@ -19,6 +19,8 @@ PAIRS = {
     "delays": "--delay",
     "measure": "--measure",
     "weights": "--weights",
+    "process": "--process-noise",
+    "measurement": "--measurement-noise",
 }
 VALUES = {
     "dt": "--dt",
@@ -30,6 +32,7 @@ VALUES = {
     "limit": "--limit",
     "window": "--window",
     "every": "--every",
+    "focus": "--focus",
 }
 SWITCHES = {"drop_nan": "--drop-nan", "allow_changed_data": "--allow-changed-data", "trim": "--trim", "polish": "--polish"}
 CALLS = [

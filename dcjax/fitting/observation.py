@@ -28,10 +28,12 @@ from ..io.recording import Recording
 from ..io.units import SI_UNITS
 from ..models import Model
 from ..models.parameters import Parameter, Parameters
-from ..simulation.losses import Loss, get_loss
+from ..simulation.losses import SSE, Loss, get_loss
+from ..simulation.predictors import EKF, Predictor, Simulation
 from ..simulation.problem import HOLDS, held_inputs
 
 SPECS = ("measured", "derivative", "fit")
+FOCUSES = ("simulation", "prediction")
 NOISE_SHARE = 1e-4  # a channel is noisy where its noise level exceeds this share of its range
 OFFSET_SHARE = 0.10  # an offset's automatic range: +- this share of its channel's peak
 DELAY_SAMPLES = 10.0  # a delay's automatic range: 0 .. this many sample intervals
@@ -51,8 +53,13 @@ class Observation:
     recording); `offsets`: measured channels with an additive sensor offset `offset_<channel>`;
     `delays`: inputs with a delay `delay_<input>` in seconds; `measure`: the states compared with
     the recordings (default: the model's `measured`; `Model.measuring`); `hold`: input -> "zoh"
-    for an input held between samples (default "linear", eq. 29). `check(model)` checks the
-    names; `observed(model)` is the model with the compared states."""
+    for an input held between samples (default "linear", eq. 29). `focus`: "simulation" (the
+    default: output error, the open-loop simulation compared) or "prediction" (prediction error:
+    an extended Kalman filter's innovations, `dcjax.simulation.kalman`), with `process`: state ->
+    the process noise's intensity (unit^2/s) or "fit" (`q_<state>`, log scale; the default of a
+    measured state; another has none) and `measurement`: output -> the sensor's sd or "fit"
+    (`r_<output>`, the default). `check(model)` checks the names; `observed(model)` is the model
+    with the compared states."""
 
     loss: Loss = dataclasses.field(default_factory=lambda: get_loss(None))
     initial: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
@@ -60,6 +67,9 @@ class Observation:
     delays: tuple[str, ...] = ()
     measure: tuple[str, ...] | None = None
     hold: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    focus: str = "simulation"
+    process: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
+    measurement: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     chosen: Mapping[str, str] = dataclasses.field(default_factory=dict, compare=False, repr=False)  # state -> why (with_defaults)
 
     def __post_init__(self):
@@ -81,6 +91,15 @@ class Observation:
             if isinstance(self.measure, str) or not all(isinstance(n, str) for n in self.measure):
                 raise ConfigError(f"measure must be a list of state names, got {self.measure!r}")
             object.__setattr__(self, "measure", tuple(self.measure))
+        if self.focus not in FOCUSES:
+            raise ConfigError(f"focus must be simulation or prediction, got {self.focus!r}")
+        for what in ("process", "measurement"):
+            given = getattr(self, what)
+            if not isinstance(given, Mapping):
+                raise ConfigError(f"{what} must be a name -> number|'fit' mapping, got {given!r}")
+            if given and self.focus != "prediction":
+                raise ConfigError(f"{what} noise is a state estimator's: it needs focus='prediction' (--focus prediction)")
+            object.__setattr__(self, what, {str(k): noise_spec(v, f"{what}: {k}", strict=what == "measurement") for k, v in given.items()})
         object.__setattr__(self, "loss", get_loss(self.loss))
         object.__setattr__(self, "initial", {str(k): initial_spec(v, str(k)) for k, v in dict(self.initial).items()})
 
@@ -94,6 +113,7 @@ class Observation:
             and not self.delays
             and self.measure is None
             and not self.hold
+            and self.focus == "simulation"
         )
 
     def observed(self, model: Model) -> Model:
@@ -121,6 +141,14 @@ class Observation:
         for what, names in (("offset", self.offsets), ("delay", self.delays)):
             if len(set(names)) != len(names):
                 raise ConfigError(f"{what}: a channel is named twice in {', '.join(names)}")
+        for what, pool, kind in (("process", model.states, "state"), ("measurement", model.outputs, "output")):
+            bad = [k for k in getattr(self, what) if k not in pool]
+            if bad:
+                raise ConfigError(
+                    f"{what}: {', '.join(bad)} is not a{'n' if kind == 'output' else ''} {kind} of model {model.name} ({', '.join(pool)})"
+                )
+        if self.focus == "prediction" and type(self.loss) is not SSE:
+            raise ConfigError(f"focus prediction scores the innovations' Gaussian likelihood: loss must be sse, got {self.loss.spec}")
         return self
 
     def spec_of(self, state: str, model: Model, recording: Recording) -> "float | str":
@@ -169,13 +197,37 @@ class Observation:
     def fitted_states(self) -> tuple[str, ...]:
         return tuple(s for s, v in self.initial.items() if v == "fit")
 
-    def parameter_names(self) -> tuple[str, ...]:
+    def fitted_noise(self, model: Model) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """(states, outputs) whose process intensity `q_<state>` and sensor sd `r_<output>` a
+        prediction-error fit searches (none for a simulation-error fit)."""
+        if self.focus != "prediction":
+            return (), ()
+        model = self.observed(model)
+        states = tuple(s for s in model.states if self.process.get(s, "fit" if s in model.outputs else 0.0) == "fit")
+        return states, tuple(c for c in model.outputs if self.measurement.get(c, "fit") == "fit")
+
+    def predictor(self, model: Model, recording: Recording) -> Predictor:
+        """The predictor of `recording`'s problem: `Simulation()`, or for focus prediction an `EKF`
+        with the noise given (a fitted one, `fitted_noise`, is the search's: 1 stands for it),
+        P_0's sd the sensor's for a state that starts at its measured sample, else 0."""
+        if self.focus != "prediction":
+            return Simulation()
+        model = self.observed(model)
+        numbers = lambda given: {k: v for k, v in given.items() if v != "fit"}
+        starts = tuple(s for s in model.states if s in model.outputs and self.spec_of(s, model, recording) == "measured")
+        return EKF.of(model, numbers(self.process), {c: 1.0 for c in model.outputs} | numbers(self.measurement), measured_start=starts)
+
+    def parameter_names(self, model: Model | None = None) -> tuple[str, ...]:
         """The names of the experiment's parameters (before a joint fit's per-recording copies):
-        `y0_<state>` per fitted initial state, `offset_<channel>`, `delay_<input>`."""
+        `y0_<state>` per fitted initial state, `offset_<channel>`, `delay_<input>`, and (with
+        `model`) a prediction-error fit's `q_<state>` and `r_<output>`."""
+        states, outputs = self.fitted_noise(model) if model is not None else ((), ())
         return (
             *(f"y0_{s}" for s in self.fitted_states()),
             *(f"offset_{c}" for c in self.offsets),
             *(f"delay_{u}" for u in self.delays),
+            *(f"q_{s}" for s in states),
+            *(f"r_{c}" for c in outputs),
         )
 
     def parameters(self, model: Model, recordings: list[Recording], given: Parameters) -> list[Parameter]:
@@ -185,7 +237,7 @@ class Observation:
         interval), a fitted initial state the measured channel's range widened by 10 % of its peak
         (+-1.5x the largest filtered derivative for a derivative state; a noisy state fitted by
         default: its first samples +- 8 noise sd, `start_range`)."""
-        names = self.parameter_names()
+        names = self.parameter_names(model)
         bad = [n for n in given if n not in names]
         if bad:
             hint = ", ".join(sorted(names)) or "none (no initial={STATE: 'fit'}, offsets= or delays=)"
@@ -236,6 +288,8 @@ class Observation:
     def to_dict(self) -> dict:
         measure = {} if self.measure is None else {"measure": list(self.measure)}
         hold = {"hold": dict(self.hold)} if self.hold else {}
+        if self.focus != "simulation":
+            hold |= {"focus": self.focus, "process": dict(self.process), "measurement": dict(self.measurement)}
         return {
             "loss": self.loss.spec,
             "normalize": self.loss.normalize,
@@ -256,6 +310,9 @@ class Observation:
             tuple(settings.get("delays") or ()),
             None if settings.get("measure") is None else tuple(settings["measure"]),
             dict(settings.get("hold") or {}),
+            settings.get("focus") or "simulation",
+            dict(settings.get("process") or {}),
+            dict(settings.get("measurement") or {}),
         )
 
 
@@ -316,16 +373,56 @@ def derivative_at_start(recording: Recording, source: str, state: str = "") -> f
 
 
 def parameter_unit(name: str, model: Model) -> str:
-    """The unit of one of the experiment's parameters: a delay's s, else its channel's SI unit."""
+    """The unit of one of the experiment's parameters: a delay's s, a process intensity's
+    channel unit^2/s, else its channel's SI unit."""
     if name.startswith("delay_"):
         return "s"
-    channel = name.removeprefix("y0_").removeprefix("offset_")
+    if name.startswith("q_"):
+        unit = SI_UNITS.get(model.quantities.get(name[2:], ""), "")
+        return f"({unit})^2/s" if " " in unit or "/" in unit else f"{unit}^2/s" if unit else "1/s"
+    channel = name.removeprefix("y0_").removeprefix("offset_").removeprefix("r_")
     return SI_UNITS.get(model.quantities.get(channel, ""), "")
+
+
+def noise_spec(spec, field: str, strict: bool = False) -> "float | str":
+    """A noise figure: `"fit"` or a number >= 0 (> 0 where `strict`)."""
+    if isinstance(spec, str) and spec.strip().lower() == "fit":
+        return "fit"
+    v = finite_number(spec, field, "a number or fit")
+    if v < 0 or (strict and v == 0):
+        raise ConfigError(f"{field} must be a number {'>' if strict else '>='} 0 or fit, got {spec!r}")
+    return v
+
+
+NOISE_DECADES = 1.5  # a fitted sensor sd's range: the data's noise estimate x 10^(+-1.5)
+PROCESS_DECADES = 8.0  # a fitted process intensity's range: this many decades below the rough top
+
+
+def noise_parameter(name: str, model: Model, recordings: list[Recording], unit: str) -> Parameter:
+    """A prediction-error fit's noise, on a log scale: `r_<output>` around the data's noise
+    estimate (`noise_level`, x 10^(+-1.5), at least 1e-9 and 1e-3 of the peak at the ends);
+    `q_<state>` from 1e-8 of up to 10 x the intensity that would explain every change of the
+    state's channel between samples as noise, var(diff y) / h."""
+    channel = name[2:]
+    missing = [r.name for r in recordings if channel not in r.channels]
+    if missing:
+        raise ConfigError(f"{name}: {channel} is not measured in {missing[0]!r}: give its noise (process={{{channel!r}: VALUE}})")
+    ys = [np.asarray(r[channel], float) for r in recordings]
+    peak = max(float(np.max(np.abs(y))) for y in ys) or 1.0
+    if name.startswith("r_"):
+        sd = max(noise_level(y) for y in ys)
+        lo, hi = max(sd * 10**-NOISE_DECADES, 1e-9 * peak), max(sd * 10**NOISE_DECADES, 1e-3 * peak)
+        return Parameter(name, value=None, min=lo, max=hi, unit=unit, scale="log")
+    top = max(float(np.var(np.diff(y)) / np.median(np.diff(r.t))) for y, r in zip(ys, recordings))
+    top = 10.0 * max(top, 1e-12 * peak**2)
+    return Parameter(name, value=None, min=top * 10**-PROCESS_DECADES, max=top, unit=unit, scale="log")
 
 
 def default_parameter(name: str, model: Model, recordings: list[Recording], observation: Observation) -> Parameter:
     """The automatic range and start value of one of the experiment's parameters (`Observation.parameters`)."""
     unit = parameter_unit(name, model)
+    if name.startswith(("q_", "r_")):
+        return noise_parameter(name, model, recordings, unit)
     if name.startswith("offset_"):
         c = name.removeprefix("offset_")
         peak = max(float(np.max(np.abs(r[c]))) for r in recordings)

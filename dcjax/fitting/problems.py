@@ -64,6 +64,7 @@ def problems_of(recordings, model: Model, integrator: Integrator, weights, obser
             loss=observation.loss,
             initial=observation.initial_values(model, r),
             hold=dict(observation.hold),
+            predictor=observation.predictor(model, r),
         )
         for r in recordings
     ]

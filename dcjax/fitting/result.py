@@ -166,6 +166,7 @@ class FitResult:
                 initial=obs.initial_values(self.model, r, fitted),
                 hold=dict(obs.hold),
                 measured=measured,
+                predictor=obs.predictor(self.model, r),
             )
             for r in recs
         ]
@@ -326,15 +327,26 @@ class FitResult:
         return self.chisqr / max(1, self.ndata - self.nvarys)
 
     @property
+    def prediction(self) -> bool:
+        """A prediction-error fit (`Observation.focus`): the OF is the innovations' -log L / N."""
+        return self.observation.focus == "prediction"
+
+    @property
     def aic(self) -> float:
-        """Akaike: N ln(chisqr / N) + 2 nvarys (lmfit's definition)."""
+        """Akaike: N ln(chisqr / N) + 2 nvarys (lmfit's definition); a prediction-error fit's
+        2 (-log L) + 2 nvarys, -log L = OF x samples (one recording, or equal lengths)."""
         n = max(1, self.ndata)
+        if self.prediction:
+            return float(2 * self.of * n / len(self.model.outputs) + 2 * self.nvarys)
         return float(n * np.log(max(self.chisqr, 1e-300) / n) + 2 * self.nvarys)
 
     @property
     def bic(self) -> float:
-        """Bayesian: N ln(chisqr / N) + ln(N) nvarys."""
+        """Bayesian: N ln(chisqr / N) + ln(N) nvarys (prediction error: 2 (-log L) + ln(samples) nvarys)."""
         n = max(1, self.ndata)
+        if self.prediction:
+            m = n / len(self.model.outputs)
+            return float(2 * self.of * m + np.log(m) * self.nvarys)
         return float(n * np.log(max(self.chisqr, 1e-300) / n) + np.log(n) * self.nvarys)
 
     @property

@@ -1,7 +1,7 @@
 """A fit's search vector: the model's parameters (shared, or `local`: one copy per recording of a
 joint fit, named `Tla[0]`, `Tla[1]`, ...), then the fitted initial states `y0_<state>` (one per
-recording), the sensor offsets `offset_<channel>` and the input delays `delay_<input>` (shared
-unless local). Each entry is a `Parameter` with its range; the `Layout` says which columns each
+recording), the sensor offsets `offset_<channel>`, the input delays `delay_<input>` and a state
+estimator's noise, `q_<state>` and `r_<output>` (shared unless local). Each entry is a `Parameter` with its range; the `Layout` says which columns each
 recording takes.
 
 The experiment's entries and their automatic ranges are the observation's
@@ -71,8 +71,20 @@ def search_vector(model: Model, recordings: list[Recording], params: Parameters,
         delay_inputs=tuple(model.inputs.index(u) for u in observation.delays),
         delay_cols=tuple(tuple(cols[f"delay_{u}"][r] for u in observation.delays) for r in range(n_rec)) if observation.delays else (),
         measured_start=measured_start(observation, model),
+        **_noise_columns(observation, model, lambda name, r: cols[name][r], n_rec),
     )
     return layout, Parameters(entries)
+
+
+def _noise_columns(observation: Observation, model: Model, col, n_rec: int) -> dict:
+    """The `Layout` fields of a state estimator's fitted noise (`Observation.fitted_noise`)."""
+    states, outputs = observation.fitted_noise(model)
+    return {
+        "process_states": tuple(model.states.index(s) for s in states),
+        "process_cols": tuple(tuple(col(f"q_{s}", r) for s in states) for r in range(n_rec)) if states else (),
+        "noise_channels": tuple(model.outputs.index(c) for c in outputs),
+        "noise_cols": tuple(tuple(col(f"r_{c}", r) for c in outputs) for r in range(n_rec)) if outputs else (),
+    }
 
 
 def measured_start(observation: Observation, model: Model) -> tuple[int, ...]:
@@ -101,6 +113,7 @@ def layout_of(names: tuple[str, ...], model: Model, observation: Observation, n_
         delay_inputs=tuple(model.inputs.index(u) for u in observation.delays),
         delay_cols=tuple(tuple(col(f"delay_{u}", r) for u in observation.delays) for r in range(n_rec)) if observation.delays else (),
         measured_start=measured_start(observation, model),
+        **_noise_columns(observation, model, col, n_rec),
     )
 
 
@@ -116,6 +129,10 @@ def transferred(layout: Layout, n_rec: int) -> Layout:
         delay_inputs=layout.delay_inputs,
         delay_cols=(layout.delay_cols[0],) * n_rec if layout.delay_inputs else (),
         measured_start=layout.measured_start,
+        process_states=layout.process_states,
+        process_cols=(layout.process_cols[0],) * n_rec if layout.process_states else (),
+        noise_channels=layout.noise_channels,
+        noise_cols=(layout.noise_cols[0],) * n_rec if layout.noise_channels else (),
     )
 
 
@@ -128,6 +145,8 @@ def rows_of(layout: Layout, rows: list[int]) -> Layout:
         y0_cols=pick(layout.y0_cols),
         offset_cols=pick(layout.offset_cols),
         delay_cols=pick(layout.delay_cols),
+        process_cols=pick(layout.process_cols),
+        noise_cols=pick(layout.noise_cols),
     )
 
 

@@ -22,12 +22,16 @@ from .problem import Problem
 class Adjustments(eqx.Module):
     """`y0`: (*batch, S) the whole initial state (None: the problem's); `offset`: (*batch, C) per
     measured channel (None: none); `delay`: (*batch, M) seconds per input (None: none), of which
-    the inputs `delayed` (static; empty: every input) may be non-zero."""
+    the inputs `delayed` (static; empty: every input) may be non-zero; `process` (*batch, S) and
+    `measurement` (*batch, C): the noise of a state estimator (`dcjax.simulation.predictors.EKF`)
+    searched with the parameters (None: the predictor's own)."""
 
     y0: Float[Array, "*batch s"] | None = None
     offset: Float[Array, "*batch c"] | None = None
     delay: Float[Array, "*batch m"] | None = None
     delayed: tuple[int, ...] = eqx.field(static=True, default=())
+    process: Float[Array, "*batch s"] | None = None  # a state estimator's process intensities (None: the predictor's own)
+    measurement: Float[Array, "*batch c"] | None = None  # and its sensors' sd
 
 
 def sample_times(problem: Problem) -> Float[Array, " n"]:

@@ -126,3 +126,10 @@ def simulate_scan(params, problem: Problem, adjustments=None) -> Float[Array, "*
         _, ys = jax.lax.scan(body, y, scan_inputs(problem), unroll=problem.unroll)
     out = jnp.concatenate([jnp.stack(y, axis=-1)[None], ys], axis=0)  # (N, *batch, S)
     return jnp.moveaxis(out, 0, -2)
+
+
+def sample_inputs(problem: Problem) -> Float[Array, "n m"]:
+    """The inputs at every sample as an output equation reads them: the recording's first sample,
+    then each interval's end value (eq. 29's; an input held over the interval, and a
+    discrete-time model's, its held value; no input delay)."""
+    return jnp.concatenate([problem.u_start[:1], problem.u_end], axis=0)

@@ -31,7 +31,8 @@ class Layout(eqx.Module):
     `offset_cols[r]` of each channel in `offset_channels` (indices into the measured channels);
     `delay_cols[r]` of each input in `delay_inputs`. A state that starts at its measured first
     sample and whose sensor has an offset (`measured_start`, indices into `offset_channels`)
-    starts at that sample less the offset."""
+    starts at that sample less the offset. A state estimator's fitted noise: `process_cols[r]` of
+    each state in `process_states`, `noise_cols[r]` of each output in `noise_channels`."""
 
     names: tuple[str, ...] = eqx.field(static=True)
     model_cols: Columns = eqx.field(static=True)
@@ -42,6 +43,10 @@ class Layout(eqx.Module):
     delay_inputs: tuple[int, ...] = eqx.field(static=True, default=())
     delay_cols: Columns = eqx.field(static=True, default=())
     measured_start: tuple[int, ...] = eqx.field(static=True, default=())  # offset channels whose state starts at the measured sample
+    process_states: tuple[int, ...] = eqx.field(static=True, default=())  # a state estimator's fitted process intensities q_<state>
+    process_cols: Columns = eqx.field(static=True, default=())
+    noise_channels: tuple[int, ...] = eqx.field(static=True, default=())  # and its fitted sensor sd r_<output>
+    noise_cols: Columns = eqx.field(static=True, default=())
 
     @classmethod
     def plain(cls, names: tuple[str, ...], recordings: int = 1) -> "Layout":
@@ -59,7 +64,7 @@ class Layout(eqx.Module):
 
     @property
     def adjusted(self) -> bool:
-        return bool(self.y0_states or self.offset_channels or self.delay_inputs)
+        return bool(self.y0_states or self.offset_channels or self.delay_inputs or self.process_states or self.noise_channels)
 
     def model_x(self, x, r: int):
         """Recording r's model parameter vector(s) of the search vector(s) `x` (…, D)."""
@@ -87,7 +92,16 @@ class Layout(eqx.Module):
         if self.delay_inputs:
             delay = jnp.zeros((*x.shape[:-1], problem.u_start.shape[1]), x.dtype)
             delay = delay.at[..., np.asarray(self.delay_inputs)].set(x[..., np.asarray(self.delay_cols[r])])
-        return Adjustments(y0 if self.y0_states or self.measured_start else None, offset, delay, self.delay_inputs)
+        process = noise = None
+        predictor = problem.predictor
+        if self.process_states:
+            process = jnp.broadcast_to(predictor.process, (*x.shape[:-1], len(problem.model.states))).astype(x.dtype)  # pyright: ignore[reportAttributeAccessIssue]
+            process = process.at[..., np.asarray(self.process_states)].set(x[..., np.asarray(self.process_cols[r])])
+        if self.noise_channels:
+            noise = jnp.broadcast_to(predictor.measurement, (*x.shape[:-1], problem.y_meas.shape[1])).astype(x.dtype)  # pyright: ignore[reportAttributeAccessIssue]
+            noise = noise.at[..., np.asarray(self.noise_channels)].set(x[..., np.asarray(self.noise_cols[r])])
+        y0 = y0 if self.y0_states or self.measured_start else None
+        return Adjustments(y0, offset, delay, self.delay_inputs, process, noise)
 
 
 PAD_SHARE = 1.25  # pad a group's shorter recordings where that adds at most 25 % samples

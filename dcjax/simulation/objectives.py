@@ -7,9 +7,11 @@ from jaxtyping import Array, Float
 from ..errors import ConfigError
 from ..io.recording import Recording, as_recording
 from .adjustments import Adjustments, input_pieces
-from .integrate import advance, advance_pieces, initial_state, prepare, scan_inputs, scan_values, simulate_scan
+from .integrate import advance, advance_pieces, initial_state, prepare, sample_inputs, scan_inputs, scan_values, simulate_scan
+from .kalman import kalman_filter, prediction_error
 from .kernel import BLOCK, kernel_mode, objective_kernel, simulate_kernel
 from .losses import SSE
+from .predictors import EKF
 from .problem import Problem, make_problem
 
 __all__ = ["Problem", "make_problem", "simulate", "simulate_outputs", "objective", "residuals", "population_objective"]
@@ -86,6 +88,8 @@ def objective(params, problem: Problem, adjustments: Adjustments | None = None) 
     Another `problem.loss` (`dcjax.simulation.losses`) scores each residual with its rho, and
     `adjustments` (batched like `params`) fit the initial state, sensor offsets and input delays;
     both are evaluated by the scan (the kernel computes eq. 24/27 only)."""
+    if isinstance(problem.predictor, EKF):  # prediction error: the innovations' likelihood (`dcjax.simulation.kalman`)
+        return prediction_error(params, problem, problem.predictor, adjustments)
     plain = _plain(problem, adjustments)
     mode = kernel_mode()
     if mode is not None and plain:
@@ -162,13 +166,6 @@ def _row(u_k) -> tuple:
     return () if u_k is None else tuple(u_k[j] for j in range(u_k.shape[-1]))
 
 
-def sample_inputs(problem: Problem) -> Float[Array, "n m"]:
-    """The inputs at every sample as an output equation reads them: the recording's first sample,
-    then each interval's end value (eq. 29's; an input held over the interval, and a
-    discrete-time model's, its held value; no input delay)."""
-    return jnp.concatenate([problem.u_start[:1], problem.u_end], axis=0)
-
-
 def outputs_of(params, problem: Problem, states: Float[Array, "*batch n s"]) -> Float[Array, "*batch n c"]:
     """The compared outputs (`Model.compared`, in `model.outputs` order) of a state trajectory
     `states` simulated at `params`, without sensor offsets."""
@@ -205,7 +202,14 @@ def population_objective(x: Float[Array, "P D"], problem: Problem) -> Float[Arra
 def residuals(params, problem: Problem, adjustments: Adjustments | None = None) -> Float[Array, "*batch cn"]:
     """Residual vector r with sum(r**2) == objective: sqrt(w_c/N)(y_c - y*_c)/max|y*_c| for every
     sample of the first channel, then the next channel (another loss: sign(a) sqrt(w_c/N rho(a)),
-    `Loss.residual`). Used by the Levenberg–Marquardt polish and the uncertainty analysis."""
+    `Loss.residual`). Used by the Levenberg–Marquardt polish and the uncertainty analysis. With a
+    state estimator (`EKF`): its normalised innovations L_k^-1 nu_k over sqrt(N), channel by
+    channel (the likelihood's quadratic part, its noise held)."""
+    if isinstance(problem.predictor, EKF):
+        w = kalman_filter(params, problem, problem.predictor, adjustments).normalised()
+        mask = jnp.ones(problem.n) if problem.mask is None else problem.mask
+        w = w * mask[:, None] / jnp.sqrt(jnp.sum(mask))
+        return jnp.concatenate([w[..., j] for j in range(w.shape[-1])], axis=-1)
     sim = simulate_outputs(params, problem, adjustments)
     loss = problem.loss
     norm = problem.norm if problem.norm is not None else jnp.ones_like(problem.scale)

@@ -10,6 +10,7 @@ from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
 from .integrators import RK4, Integrator, integrator_for
 from .losses import SSE, Loss, get_loss
+from .predictors import EKF, Predictor, Simulation
 
 
 class Problem(eqx.Module):
@@ -32,6 +33,7 @@ class Problem(eqx.Module):
     integrator: Integrator = RK4()
     norm: Float[Array, " c"] | None = None  # 1 / max|y_c| (1 without normalisation); None: the default SSE
     loss: Loss = SSE()
+    predictor: Predictor = Simulation()  # how the outputs are predicted: open loop, or a state estimator (`EKF`)
     mask: Float[Array, " n"] | None = None  # 1 for a recorded sample, 0 for padding (`dcjax.simulation.joint.padded`)
     unroll: int = eqx.field(static=True, default=1)
     knots: int = eqx.field(static=True, default=1)  # most knots of a delayed input inside one interval (`knots_per_interval`)
@@ -94,6 +96,7 @@ def make_problem(
     loss: Loss | str | None = None,
     hold: "dict[str, str] | None" = None,
     measured: bool = True,
+    predictor: Predictor | None = None,
 ) -> Problem:
     """Prepare `recording` for `simulate`/`objective` with `model` (default: the paper's DC drive).
 
@@ -112,6 +115,9 @@ def make_problem(
       normalised by the channel's peak or not), or its spec (`"l1"`, `"huber:0.1"`).
     - `measured=False`: a problem to simulate the recording's inputs alone; it may lack the
       model's outputs (their targets are NaN, and so is the objective).
+    - `predictor`: `Simulation()` (the default: open loop, output error) or `EKF.of(model, ...)`
+      (prediction error: the objective is the innovations' negative log-likelihood over N,
+      `dcjax.simulation.kalman`; its loss is the Gaussian one, so `loss` must be the default).
     - The supply's limit (`model.clamp`: on `model.limited_state`, or the model's own) is the recording's `limit` (None: no limit;
       `recording.replace(limit=...)` for another).
     """
@@ -122,18 +128,11 @@ def make_problem(
         )
     integrator = integrator_for(model, integrator)
     loss = get_loss(loss)
+    predictor = checked_predictor(predictor, model, loss)
     check_positive_int("unroll", unroll)
     outs = model.outputs
     w = channel_weights(weights, outs)
-    needed = model.channels if measured else model.inputs
-    missing = [c for c in needed if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
-    if missing:
-        consts = f" and constants {', '.join(recording.constants)}" if recording.constants else ""
-        raise ConfigError(
-            f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has "
-            f"{', '.join(recording.channels)}{consts} (the model's inputs {', '.join(model.inputs) or 'none'} may also be "
-            'constants: constants={NAME: V}, or the sidecar\'s "constants")'
-        )
+    _check_channels(recording, model, measured)
     t = recording.t
     u = np.stack([recording[c] for c in model.inputs], axis=1) if model.inputs else np.zeros((len(t), 0))
     if voltage is not None:
@@ -175,10 +174,41 @@ def make_problem(
         unroll=int(unroll),
         norm=None if type(loss) is SSE else f64(1.0 / peak if loss.normalize == "peak" else np.ones_like(peak)),
         loss=loss,
+        predictor=predictor,
         knots=knots_per_interval(t),
         held=held,
         steady=tuple(j for j, c in enumerate(model.inputs) if (j == 0 and voltage is not None) or c not in recording.channels),
     )
+
+
+def _check_channels(recording: Recording, model: Model, measured: bool) -> None:
+    """A one-line error where `recording` lacks a channel the problem needs (the inputs alone
+    where not `measured`; an input may be a recording's constant)."""
+    needed = model.channels if measured else model.inputs
+    missing = [c for c in needed if not (c in recording.channels or (c in model.inputs and c in recording.constants))]
+    if missing:
+        consts = f" and constants {', '.join(recording.constants)}" if recording.constants else ""
+        raise ConfigError(
+            f"{recording._where()}model {model.name} needs channel(s) {', '.join(missing)}; the recording has "
+            f"{', '.join(recording.channels)}{consts} (the model's inputs {', '.join(model.inputs) or 'none'} may also be "
+            'constants: constants={NAME: V}, or the sidecar\'s "constants")'
+        )
+
+
+def checked_predictor(predictor, model: Model, loss: Loss) -> Predictor:
+    """`predictor` (None: `Simulation()`), one-line errors where it cannot serve `model` or `loss`."""
+    if predictor is None:
+        return Simulation()
+    if not isinstance(predictor, Predictor):
+        raise ConfigError(f"predictor must be dcjax.Simulation() or dcjax.EKF.of(model, ...), got {predictor!r}")
+    if isinstance(predictor, EKF):
+        if predictor.process.shape != (len(model.states),) or predictor.measurement.shape != (len(model.outputs),):
+            raise ConfigError(f"predictor: an EKF sized for another model; build it with EKF.of(model, ...) for model {model.name}")
+        if type(loss) is not SSE:
+            raise ConfigError(
+                f"predictor: an EKF scores the innovations' Gaussian likelihood; loss must be the default sse, got {loss.spec}"
+            )
+    return predictor
 
 
 def channel_weights(weights, outs: tuple[str, ...]) -> np.ndarray:

@@ -11,7 +11,8 @@ estimated on the record with the parameters fixed (`"estimate"` over the whole r
 to every state (`"fitted"`: to every fitted one); `"x1=estimate,y=measured"` (or a dict) sets
 them one by one. `skip` samples at the start are left out of every figure (a benchmark's
 initialisation window). The residual tests assume an output-error model: with sensor noise alone the residual
-is white and uncorrelated with the inputs; with process noise only the input test applies."""
+is white and uncorrelated with the inputs; with process noise only the input test applies.
+`predict=K` judges the K-step-ahead prediction instead (`dcjax.analysis.prediction`)."""
 
 import dataclasses
 import math
@@ -29,6 +30,7 @@ from ..io.recording import Recording, as_recording
 from ..simulation.joint import JointProblem
 from .initial_states import estimate_states, released, with_start
 from .metrics import channel_metrics, criteria, input_correlation, whiteness
+from .prediction import calibration, predicted
 
 INITIAL_MODES = ("measured", "fitted", "estimate")
 Mode = str | float | tuple[str, int | None]  # "measured" | "fitted" | ("estimate", samples or None) | a value
@@ -48,6 +50,10 @@ class Validation:
     channels: dict[str, dict]
     start: dict[str, float]
     residuals: np.ndarray = dataclasses.field(repr=False, compare=False)  # (samples, C) measured - simulated, after `skip`
+    predict: int | None = None  # the figures are of the K-step-ahead prediction (None: of the simulation)
+    calibration: dict | None = None  # with predict: per output the normalised innovations' mean, variance, whiteness
+    noise: dict | None = None  # with predict: the filter's q_<state>, r_<output>
+    noise_estimated: bool = False  # estimated on this record with the parameters fixed (a simulation-error fit)
 
     def to_dataframe(self):
         """The figures as a pandas DataFrame, a row per output channel (`input_correlation` a
@@ -65,8 +71,11 @@ class Validation:
 
     def to_dict(self) -> dict:
         """The keys validation.json writes for this record."""
-        return {"recording": self.recording, "initial": self.initial, "skip": self.skip, "samples": self.samples, "of": self.of,
-                "start": self.start, "channels": self.channels}  # fmt: skip
+        out = {"recording": self.recording, "initial": self.initial, "skip": self.skip, "samples": self.samples, "of": self.of,
+               "start": self.start, "channels": self.channels}  # fmt: skip
+        if self.predict is not None:
+            out |= {"predict": self.predict, "calibration": self.calibration, "noise": self.noise, "noise_estimated": self.noise_estimated}
+        return out
 
 
 @filter_jit
@@ -191,10 +200,14 @@ def held_out_start(result, recording: Recording, modes: dict[str, Mode], x) -> J
     return with_start(released(target, idx), z, np.asarray(idx))
 
 
-def validate(result, recordings: Sequence[Recording], initial="measured", skip: int = 0) -> list[Validation]:
-    """`Validation` of `result` on each of `recordings` (module docstring)."""
+def validate(result, recordings: Sequence[Recording], initial="measured", skip: int = 0, predict: int | None = None) -> list[Validation]:
+    """`Validation` of `result` on each of `recordings` (module docstring); `predict=K`: the
+    figures of the K-step-ahead prediction by the fit's Kalman filter, with the innovations'
+    calibration (`dcjax.analysis.prediction`)."""
     if not isinstance(skip, (int, np.integer)) or isinstance(skip, bool) or skip < 0:
         raise ConfigError(f"skip must be a non-negative whole number of samples, got {skip!r}")
+    if predict is not None and (not isinstance(predict, (int, np.integer)) or isinstance(predict, bool) or predict < 1):
+        raise ConfigError(f"predict must be a whole number of samples >= 1, got {predict!r}")
     modes = initial_modes(result, initial)
     m = result.model
     recordings = [as_recording(r, m) for r in recordings]  # a pandas DataFrame: Recording.from_dataframe
@@ -205,6 +218,8 @@ def validate(result, recordings: Sequence[Recording], initial="measured", skip: 
             raise ConfigError(f"{rec._where()}skip: {skip} leaves {len(rec) - skip} of {len(rec)} samples (need at least 3)")
         target = held_out_start(result, rec, modes, x)
         sim, of = np.asarray(_outputs(x, target)), float(_objective(x, target))
+        forecast = None if predict is None else predicted(result, target, x, int(predict))
+        sim = sim if forecast is None else forecast.outputs
         adj = target.adjustments(x, 0)
         y0 = np.asarray(target.problems[0].y0 if adj is None or adj.y0 is None else adj.y0, float)
         inputs = {u: np.asarray(rec[u], float)[skip:] for u in m.inputs if u in rec.channels and u not in rec.constants}
@@ -219,7 +234,13 @@ def validate(result, recordings: Sequence[Recording], initial="measured", skip: 
                 "input_correlation": {u: input_correlation(e, v) for u, v in inputs.items()},
             }
         start = {s: float(v) for s, v in zip(m.states, y0)}
-        out.append(Validation(rec.name, _mode_text(initial), int(skip), len(rec) - skip, of, channels, start, np.stack(res, axis=1)))
+        extra = {}
+        if forecast is not None:
+            extra = {"predict": int(predict), "calibration": calibration(forecast.whitened[skip:], m.outputs),  # pyright: ignore[reportArgumentType]
+                     "noise": forecast.noise, "noise_estimated": forecast.estimated}  # fmt: skip
+        out.append(
+            Validation(rec.name, _mode_text(initial), int(skip), len(rec) - skip, of, channels, start, np.stack(res, axis=1), **extra)
+        )
     return out
 
 

@@ -29,12 +29,19 @@ def skip_samples(text: str, flag: str) -> int:
     return n
 
 
-def validation_report(res, recs, initial: str, skip: int, out: Path) -> list[str]:
+PREDICT_HELP = (
+    "judge the K-step-ahead prediction instead of the simulation: filtered by an extended Kalman filter to K samples "
+    "before, then simulated (a prediction-error fit's own filter; another fit's noise is estimated on the record)"
+)
+
+
+def validation_report(res, recs, initial: str, skip: int, out: Path, predict: int | None = None) -> list[str]:
     """Validate `res` on `recs`, write validation.json and the plots in `out`; the lines to print."""
-    vals = validate(res, recs, initial=initial, skip=skip)
+    vals = validate(res, recs, initial=initial, skip=skip, predict=predict)
     width = max(12, *(len(r.name) for r in recs))
     lines = []
-    lines.append(f"initial state {initial}; {skip} sample(s) skipped; residual tests over lags 1..{LAGS} (99 % bands)")
+    mode = "simulation" if predict is None else f"{predict}-step-ahead prediction"
+    lines.append(f"{mode}; initial state {initial}; {skip} sample(s) skipped; residual tests over lags 1..{LAGS} (99 % bands)")
     lines.append(
         f"{'recording':>{width}} {'output':>10} {'OF':>12} {'rmse':>12} {'nrmse':>9} {'fit %':>9} {'R2':>9} {'mae':>12} "
         f"{'white':>6} {'input':>6}"
@@ -51,6 +58,16 @@ def validation_report(res, recs, initial: str, skip: int, out: Path) -> list[str
                 lines.append(
                     f"warning: {v.recording}: fit % of {c} is {f['fit_percent']:.1f} <= 0: the model does not follow {c} on this recording"
                 )
+        if v.predict is not None:
+            said = "estimated on this record with the parameters fixed" if v.noise_estimated else "the fit's"
+            lines.append(f"{v.recording}: filter noise ({said}): " + ", ".join(f"{k} {x:.3g}" for k, x in (v.noise or {}).items()))
+            lines.append(
+                f"{v.recording}: normalised innovations (N(0, 1) and white for a right model): "
+                + "; ".join(
+                    f"{c} mean {k['mean']:+.3f}, variance {k['variance']:.3f}, white {k['whiteness']:.2f}"
+                    for c, k in (v.calibration or {}).items()
+                )
+            )
         rows.append(
             {**v.to_dict(), "fit_percent": {c: f["fit_percent"] for c, f in v.channels.items()}, "plot": f"validate_{name}.png",
              "residual_plot": f"resid_{name}.png"}

@@ -69,6 +69,39 @@ def _jacobian(fn, xt, units):
     return out, tuple(tuple(col[i] for col in cols) for i in range(len(out)))
 
 
+def _corrector(measure, selection, units, r2):
+    """The update of the module docstring, Joseph form: (x, P, measured z, inputs u) -> (x, P,
+    (nu, S, L^-1 nu, h(x)), log N(nu; 0, S)); H by linearising `measure`, or the `selection` of
+    measured states (known entries)."""
+    n_states, n_out = len(units), len(r2)
+    log_2pi = n_out * math.log(2.0 * math.pi)
+
+    def update(xt, p, z, u_k):
+        if selection is None:
+            zh, h = _jacobian(lambda y: measure(y, u_k), xt, units)
+        else:  # measured states: H selects them (known entries, `unrolled.mul` skips the zeros)
+            zh, h = measure(xt, u_k), selection
+        nu = tuple(z[j] - zh[j] for j in range(n_out))
+        pht = um.matmul_t(p, h)  # P H'
+        s = um.symmetric(um.add_diagonal(um.matmul(h, pht), r2))
+        low = um.cholesky(s)
+        gain = tuple(um.solve_upper_t(low, um.solve_lower(low, row)) for row in pht)  # P H' S^-1, row by row
+        white = um.solve_lower(low, nu)
+        det = low[0][0]
+        for j in range(1, n_out):
+            det = det * low[j][j]
+        ll = -0.5 * (sum(w * w for w in white) + 2.0 * jnp.log(det) + log_2pi)  # log det S = 2 log prod L_jj
+        moved = tuple(xt[i] + sum(gain[i][j] * nu[j] for j in range(n_out)) for i in range(n_states))
+        kh = um.matmul(gain, h)
+        ikh = tuple(tuple(um.sub(1.0 if i == k else 0.0, kh[i][k]) for k in range(n_states)) for i in range(n_states))
+        kr = tuple(tuple(g * r2[j] for j, g in enumerate(row)) for row in gain)
+        krk = um.matmul_t(kr, gain)
+        p_new = um.symmetric(um.add(um.matmul_t(um.matmul(ikh, p), ikh), krk))  # Joseph form
+        return moved, p_new, (nu, s, white, zh), ll
+
+    return update
+
+
 def kalman_filter(params, problem: Problem, ekf: EKF, adjustments: Adjustments | None = None) -> Filtered:
     """The EKF of the module docstring over `problem`'s recording at `params` (a vector, a dict,
     or a population (*batch, P): one filter per member, its small matrices written out,
@@ -100,7 +133,6 @@ def _filter(params, problem: Problem, ekf: EKF, adjustments: Adjustments | None,
     r2 = tuple(sd[..., j] ** 2 for j in range(n_out))
     q = tuple(process[..., i] for i in range(n_states))
     units = _units(batch, n_states)
-    log_2pi = n_out * math.log(2.0 * math.pi)
 
     def measure(xt, u_k):
         out = model.compared(c, tuple(u_k[j] for j in range(m)), xt)
@@ -109,29 +141,7 @@ def _filter(params, problem: Problem, ekf: EKF, adjustments: Adjustments | None,
     selection = (
         None if model.has_output_equation else tuple(tuple(1.0 if k == o else 0.0 for k in range(n_states)) for o in model.output_index)
     )
-
-    def update(xt, p, z, u_k):
-        if selection is None:
-            zh, h = _jacobian(lambda y: measure(y, u_k), xt, units)
-        else:  # measured states: H selects them (known entries, `unrolled.mul` skips the zeros)
-            zh, h = measure(xt, u_k), selection
-        nu = tuple(z[j] - zh[j] for j in range(n_out))
-        pht = um.matmul_t(p, h)  # P H'
-        s = um.symmetric(um.add_diagonal(um.matmul(h, pht), r2))
-        low = um.cholesky(s)
-        gain = tuple(um.solve_upper_t(low, um.solve_lower(low, row)) for row in pht)  # P H' S^-1, row by row
-        white = um.solve_lower(low, nu)
-        det = low[0][0]
-        for j in range(1, n_out):
-            det = det * low[j][j]
-        ll = -0.5 * (sum(w * w for w in white) + 2.0 * jnp.log(det) + log_2pi)  # log det S = 2 log prod L_jj
-        moved = tuple(xt[i] + sum(gain[i][j] * nu[j] for j in range(n_out)) for i in range(n_states))
-        kh = um.matmul(gain, h)
-        ikh = tuple(tuple(um.sub(1.0 if i == k else 0.0, kh[i][k]) for k in range(n_states)) for i in range(n_states))
-        kr = tuple(tuple(g * r2[j] for j, g in enumerate(row)) for row in gain)
-        krk = um.matmul_t(kr, gain)
-        p_new = um.symmetric(um.add(um.matmul_t(um.matmul(ikh, p), ikh), krk))  # Joseph form
-        return moved, p_new, (nu, s, white, zh), ll
+    update = _corrector(measure, selection, units, r2)
 
     def transition(xt, lengths, inputs):
         return advance_pieces(c, problem, xt, lengths, inputs, steady)

@@ -1,9 +1,10 @@
 """`dcjax validate`: a saved result judged on other recordings (`dcjax.analysis.held_out`): per
 recording and output its OF, rmse, nrmse, fit %, R², mae and the residual tests, with plots."""
 
+from ...errors import ConfigError
 from ..common import Loader, add_data_options, add_output_options, add_result_options, load_like_fit, saved_result
 from ..output import announce, output_folder
-from ..validation_lines import INITIAL_HELP, SKIP_HELP, skip_samples, validation_report
+from ..validation_lines import INITIAL_HELP, PREDICT_HELP, SKIP_HELP, skip_samples, validation_report
 
 
 def add_parser(sub) -> None:
@@ -14,6 +15,7 @@ def add_parser(sub) -> None:
     v.add_argument("data", nargs="+", help="data file(s) or embedded names")
     v.add_argument("--initial", default="measured", help=INITIAL_HELP)
     v.add_argument("--skip", default="0", help=SKIP_HELP)
+    v.add_argument("--predict", type=int, default=None, metavar="K", help=PREDICT_HELP)
     add_output_options(v, "out", "validation.json and the plots")
     add_result_options(v)
     add_data_options(v)
@@ -26,6 +28,8 @@ def run(args) -> int:
     recs = [load_like_fit(d, loader, res) for d in args.data]
     with output_folder(args, lambda f: [f / "validation.json"], "an earlier validation.json") as folder:
         out = announce(folder)
-        lines = validation_report(res, recs, args.initial, skip, out)
+        if args.predict is not None and args.predict < 1:
+            raise ConfigError(f"--predict must be a whole number of samples >= 1, got {args.predict}")
+        lines = validation_report(res, recs, args.initial, skip, out, args.predict)
     print("\n".join(lines))
     return 0

@@ -21,6 +21,7 @@ jax.config.update("jax_enable_x64", True)
 from .analysis.design import design_input  # noqa: E402
 from .analysis.estimate import initial_estimate  # noqa: E402
 from .analysis.held_out import Validation, compare  # noqa: E402
+from .analysis.tracking import Tracked, track  # noqa: E402
 from .devices import use_compilation_cache, use_compiled_loops, use_host_devices  # noqa: E402
 from .errors import ConfigError, DataError, DcjaxError, ModelError  # noqa: E402
 from .fitting.each import fit_each  # noqa: E402
@@ -40,7 +41,9 @@ from .models.parameters import Parameter, Parameters  # noqa: E402
 from .models.priors import HalfNormalPrior, LogNormalPrior, NormalPrior, Prior  # noqa: E402
 from .models.space import Space, make_space  # noqa: E402
 from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Diffrax, Euler, Integrator  # noqa: E402
+from .simulation.kalman import Filtered, kalman_filter, predict  # noqa: E402
 from .simulation.losses import L1, LOSSES, SSE, Huber, Loss  # noqa: E402
+from .simulation.predictors import EKF, Predictor, Simulation  # noqa: E402
 from .simulation.objectives import Problem, make_problem, objective, residuals, simulate, simulate_outputs  # noqa: E402
 from .strategies.memory import LTMA, MEMORIES, STMA, IndexedLTMA, MemoryAssistance  # noqa: E402
 from .strategies.stopping import Converged  # noqa: E402
@@ -92,6 +95,14 @@ __all__ = [
     "L1",
     "Huber",
     "LOSSES",
+    "Predictor",
+    "Simulation",
+    "EKF",
+    "kalman_filter",
+    "predict",
+    "Filtered",
+    "track",
+    "Tracked",
     "MemoryAssistance",
     "STMA",
     "LTMA",

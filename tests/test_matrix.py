@@ -120,7 +120,7 @@ SENSOR_CASE = dataclasses.replace(DC_CASE, model=SensorDC(), sensors=ref.dc_sens
 CASES["sensor"] = SENSOR_CASE  # an output equation: an ODE model and a discrete-time one
 CASES["sensor-discrete"] = dataclasses.replace(SENSOR_CASE, model=SensorEulerDC(), field=ref.dc_euler_map, discrete=True)
 LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120), "far-padded": (240, 120)}
-FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative", "measure", "zoh", "zoh-delay")
+FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative", "measure", "zoh", "zoh-delay", "prediction")
 # Joint fits take the features together (a cell compiles a search and a polish, 5-10 s on 2 cores:
 # one cell per feature and length would not fit the test time): every feature at once, and the
 # derivative start with the others on padded lengths.
@@ -128,14 +128,22 @@ COMBINED = {
     "all": ("local", "offset", "delay", "initial-fit"),
     "all-derivative": ("local", "offset", "delay", "initial-derivative"),
     "zoh-delay": ("zoh", "delay"),  # a held input delayed: the step moves whole
+    "all-prediction": ("local", "offset", "delay", "initial-fit", "prediction"),  # every feature under the Kalman filter
 }
-JOINT = {"equal": ("all",), "close": ("all", "all-derivative"), "far": ("all",), "far-padded": ("all",)}
+JOINT = {"equal": ("all", "all-prediction"), "close": ("all", "all-derivative"), "far": ("all",), "far-padded": ("all",)}
 # The output-equation cases: each feature that reads the outputs (offsets on an output, a local
 # parameter, a delay, a held input, a fitted start of a state that is not an output) on one
 # recording, and every one at once on two of equal length (no encoder variant: the derivative and
 # measure cells are the state-output cases'; the lengths' cells do not read the outputs); `fit_each`
 # and the design on the ODE one.
-SENSOR_CELLS = {"one": ("local", "offset", "delay", "initial-fit", "zoh"), "equal": ("all",)}
+SENSOR_CELLS = {"one": ("local", "offset", "delay", "initial-fit", "zoh"), "equal": ("all", "all-prediction")}
+# A prediction-error fit (an EKF, its noise given: q = 0 on noise-free data, the sensors' sd 1e-3 of
+# the peaks) on one recording of each ODE and map, and with every feature on the DC motor and its sensors
+# (the PMSM's, 21 s, is not in the suite: its three states are the sensor case's question too).
+PREDICTION_CELLS = {("dc", "one"), ("discrete", "one"), ("dc", "equal"), ("sensor", "equal")}
+# Its polish (BFGS on the likelihood, `fitting.polish`) stops where the weak terms (the load torque's,
+# an offset) move the objective less than its tolerance: within 1e-3 (Ra, La, cm, J: 1e-7).
+TOL_PREDICTION = 1e-3
 
 
 def parts(feature: str) -> tuple[str, ...]:
@@ -216,14 +224,19 @@ def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
     return tuple(recs), truth
 
 
-def observation(case: Case, feature: str) -> dcjax.Observation:
+def observation(case: Case, feature: str, recs: tuple = ()) -> dcjax.Observation:
     f = parts(feature)
+    model = case.model
+    sensors = {c: 1e-3 * max(float(np.max(np.abs(r[c]))) for r in recs) for c in model.outputs} if "prediction" in f else {}
     return dcjax.Observation(
         initial={case.fitted: "fit"} if "initial-fit" in f else {case.speed: "derivative"} if "initial-derivative" in f else {},
         offsets=(case.offset,) if "offset" in f else (),
         delays=(case.delay,) if "delay" in f else (),
         measure=case.measure if "measure" in f else None,
         hold={case.delay: "zoh"} if "zoh" in f else {},
+        focus="prediction" if "prediction" in f else "simulation",
+        process=dict.fromkeys(case.model.states, 0.0) if "prediction" in f else {},  # noise-free data: the filter is the simulation
+        measurement=sensors,  # given: a sensor sd fitted to noise-free data runs to its bound, decades from the start
     )
 
 
@@ -253,7 +266,7 @@ def fit_cell(model_key: str, lengths_key: str, feature: str) -> tuple[dcjax.FitR
     model = case.encoder if "initial-derivative" in parts(feature) else case.model
     params = start_parameters(model, truth, feature, case, len(recs))
     integrator = None if case.discrete else dcjax.RK4(substeps=4)
-    res = dcjax.fit(list(recs), model, params, search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature), integrator=integrator)  # fmt: skip
+    res = dcjax.fit(list(recs), model, params, search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature, recs), integrator=integrator)  # fmt: skip
     return res, truth
 
 
@@ -269,6 +282,7 @@ CELLS = [
     if not (ln == "far-padded" and CASES[m].discrete)  # a map is not padded: "far" is its cell
     if CASES[m].sensors is None or f in SENSOR_CELLS.get(ln, ())
     if not (m == "pmsm" and (ln, f) in (("far", "all"), ("close", "all")))  # the DC cells hold those lengths; 19 s of the suite
+    if "prediction" not in parts(f) or (m, ln) in PREDICTION_CELLS
 ]
 
 
@@ -290,7 +304,7 @@ def test_cell_recovers_the_truth(model_key, lengths_key, feature, monkeypatch):
         d = f"delay_{CASES[model_key].delay}"
         assert np.ceil(res.best_values[d] / DT - 1e-9) == np.ceil(truth[d] / DT - 1e-9), (res.best_values[d], truth[d])
         err.pop(d)
-    assert max(err.values()) <= TOL, {k: f"{v:.1e}" for k, v in err.items()}
+    assert max(err.values()) <= (TOL_PREDICTION if "prediction" in parts(feature) else TOL), {k: f"{v:.1e}" for k, v in err.items()}
     if (model_key, lengths_key, feature) in (("dc", "close", "all"), ("sensor", "one", "offset")):  # full run's cells
         held_out_start_is_estimated(res, model_key, lengths_key, feature)
 

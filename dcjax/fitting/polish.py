@@ -148,6 +148,9 @@ def polish(
 
 
 def _filters(target) -> bool:
+    """A prediction-error fit: its polish minimises the likelihood itself (least squares on the
+    whitened innovations would inflate fitted noise, and stalled short of the optimum with the
+    noise given: the composition matrix's joint cell)."""
     return any(isinstance(p.predictor, EKF) for p in getattr(target, "problems", ()))
 
 
@@ -160,7 +163,7 @@ def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float,
         return target.objective(space.to_physical(_to_unit(y)))
 
     y0 = _to_free(space.to_unit(x), eps)
-    sol = optx.minimise(fn, optx.BFGS(rtol=max(rtol, 1e-10), atol=max(atol, 1e-10)), y0, max_steps=max_steps, throw=False)
+    sol = optx.minimise(fn, optx.BFGS(rtol=rtol, atol=atol), y0, max_steps=5 * max_steps, throw=False)
     of0, of1 = target.objective(x), fn(sol.value, None)
     better = jnp.isfinite(of1) & (of1 <= of0)
     x_new = space.to_physical(_to_unit(sol.value))

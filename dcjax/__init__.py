@@ -43,8 +43,8 @@ from .models.space import Space, make_space  # noqa: E402
 from .simulation.integrators import INTEGRATORS, RK4, AutoSubsteps, Diffrax, Euler, Integrator  # noqa: E402
 from .simulation.kalman import Filtered, kalman_filter, predict  # noqa: E402
 from .simulation.losses import L1, LOSSES, SSE, Huber, Loss  # noqa: E402
-from .simulation.predictors import EKF, Predictor, Simulation  # noqa: E402
 from .simulation.objectives import Problem, make_problem, objective, residuals, simulate, simulate_outputs  # noqa: E402
+from .simulation.predictors import EKF, Predictor, Simulation  # noqa: E402
 from .strategies.memory import LTMA, MEMORIES, STMA, IndexedLTMA, MemoryAssistance  # noqa: E402
 from .strategies.stopping import Converged  # noqa: E402
 from .version import __version__  # noqa: E402

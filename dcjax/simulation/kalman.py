@@ -21,6 +21,7 @@ The innovations' Gaussian log-likelihood (log det S included) is
 The K-step-ahead prediction of sample i simulates K intervals open loop from x_{i-K|i-K}."""
 
 import math
+from typing import cast
 
 import equinox as eqx
 import jax
@@ -178,6 +179,7 @@ def _filter(params, problem: Problem, ekf: EKF, adjustments: Adjustments | None,
     ll = jnp.where(jnp.isfinite(ll), ll, -jnp.inf)
     if not record:
         return ll
+    assert rows is not None
     first = pack(x00, p00, parts0)
     nu, s, white, zh, states, covs = (jnp.moveaxis(jnp.concatenate([a[None], b], axis=0), 0, len(batch)) for a, b in zip(first, rows))
     return Filtered(
@@ -195,7 +197,7 @@ def prediction_error(params, problem: Problem, ekf: EKF, adjustments: Adjustment
     """-log L / N of the innovations (module docstring; N the recorded samples), +inf where the
     filter fails; batched `params` (and `adjustments`) give one value per member."""
     n = problem.n if problem.mask is None else jnp.sum(problem.mask)
-    nll = -_filter(params, problem, ekf, adjustments, record=False) / n
+    nll = -cast(Array, _filter(params, problem, ekf, adjustments, record=False)) / n
     return jnp.where(jnp.isfinite(nll), nll, jnp.inf)
 
 

@@ -10,7 +10,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
-Vector = tuple[Array, ...]
+Entry = Array | float  # a Python float: a known entry (a selection's 0 and 1, the identity's)
+Vector = tuple[Entry, ...]
 Matrix = tuple[Vector, ...]
 
 

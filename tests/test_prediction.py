@@ -90,12 +90,12 @@ def test_prediction_error_puts_the_truth_within_three_standard_errors(tmp_path, 
     of its standard errors of the truth, and its fitted noise is the simulated one within 20 %;
     (b) at the optimum a second record's normalised innovations have mean within 0.1 and variance
     within 20 % of 1, and `validate --predict` prints them with the one-step prediction's figures."""
-    rec, r = process_noise_record(0, n=1500)
+    rec, r = process_noise_record(0, n=1200)
     dcjax.save_csv(rec, tmp_path / "pn.csv")
-    other, _ = process_noise_record(10, n=1500, name="held-out")
+    other, _ = process_noise_record(10, n=1200, name="held-out")
     dcjax.save_csv(other, tmp_path / "other.csv")
     argv = ["fit", str(tmp_path / "pn.csv"), "--focus", "prediction", "--hold", "u_a=zoh", "--bounds", "table4", "--initial", "i_a=0,omega=0",
-            "--runs", "1", "--budget", "12000", "--polish", "--uncertainty", "--plots", "none", "--out", str(tmp_path / "fit")]  # fmt: skip
+            "--runs", "1", "--budget", "9000", "--polish", "--uncertainty", "--plots", "none", "--out", str(tmp_path / "fit")]  # fmt: skip
     assert cli.main(argv) == 0
     text = capsys.readouterr().out
     assert (
@@ -109,6 +109,8 @@ def test_prediction_error_puts_the_truth_within_three_standard_errors(tmp_path, 
         assert abs(res.best_values[n] - TRUTH[n]) <= 3 * u.se[n], (n, res.best_values[n], u.se[n])
     assert res.best_values["q_omega"] == pytest.approx(Q[1], rel=0.2) and np.isfinite(u.se["q_omega"])
     assert res.best_values["r_i_a"] == pytest.approx(r[0], rel=0.2) and res.best_values["r_omega"] == pytest.approx(r[1], rel=0.2)
+    with pytest.raises(ConfigError, match="a prediction-error fit .* is not sampled yet"):
+        res.sample(draws=10, warmup=10)
     (v,) = res.validate([other], predict=1)
     for c, k in (v.calibration or {}).items():
         assert abs(k["mean"]) < 0.1 and abs(k["variance"] - 1) < 0.2, (c, k)

@@ -380,6 +380,11 @@ def sample(
         raise ConfigError(f"seed must be an integer, got {seed!r}")
     if space.dim == 0:
         raise ConfigError("every parameter is fixed: nothing to sample")
+    if any(p.predictor.filters for p in target.problems):
+        raise ConfigError(
+            "sample: a prediction-error fit (focus prediction) is not sampled yet: its likelihood is the Kalman filter's, not a "
+            "noise model of the residuals; its standard errors (--uncertainty) are the likelihood's Hessian's"
+        )
     x = jnp.asarray(x, dtype=jnp.float64)
     prior = prior_term(space, priors)
     for p, k in zip(prior.priors, prior.index):

@@ -40,7 +40,7 @@ from ..io.files import write_atomic
 from ..models.priors import Prior, prior_from_spec
 from ..models.space import Space
 from ..simulation.joint import JointProblem
-from ..simulation.likelihood import NoiseModel, fit_noise, likelihood_target, whitened_residuals
+from ..simulation.likelihood import NoiseModel, filter_likelihood, fit_noise, likelihood_target, noise_free, noise_names, whitened_residuals
 from ..simulation.losses import Loss
 from . import sample_size
 from .reflection import reflecting_verlet
@@ -132,7 +132,12 @@ class Posterior:
             f"({self.ess_per_second:.1f} bulk ESS/s, the least over the parameters)"
         )
         noise = ", ".join(f"{k} {v:.3g}" for k, v in self.noise.items())
-        lines.append(f"likelihood: {self.likelihood}, noise scale per channel (from the residuals at the optimum): {noise}")
+        scales = (
+            f", noise scale per channel (from the residuals at the optimum): {noise}"
+            if noise
+            else " (its noise sampled with the parameters)"
+        )
+        lines.append(f"likelihood: {self.likelihood}{scales}")
         own = "".join(f", {n} {p}" for n, p in self.priors.items())
         lines.append(f"prior: uniform in each search range (log-uniform on a log scale){own and ', except' + own[1:]}")
         return "\n".join(lines)
@@ -271,10 +276,15 @@ def log_posterior(theta, likelihood: JointProblem, noise: NoiseModel, space: Spa
 def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space, prior: PriorTerm):
     """The Laplace covariance in z: (J^T J + 12 I + P)^-1, J of the whitened residuals (the
     uniform prior's variance 1/12 bounds a direction the data leave free), P the own priors'
-    curvature (diagonal, its positive part)."""
-    jac = jax.jacfwd(lambda z: whitened_residuals(space.to_physical(z), target, noise))(z0)
+    curvature (diagonal, its positive part); a Kalman filter's likelihood: its Hessian for J^T J."""
+    if any(p.predictor.filters for p in target.problems):  # the filter's likelihood (`filter_likelihood`): its Hessian
+        hess = jax.hessian(lambda z: target.objective(space.to_physical(z)))(z0)
+        data = 0.5 * (hess + hess.T)
+    else:
+        jac = jax.jacfwd(lambda z: whitened_residuals(space.to_physical(z), target, noise))(z0)
+        data = jac.T @ jac
     curv = -jnp.diag(jax.hessian(lambda z: prior(space.to_physical(z)))(z0))
-    info = jac.T @ jac + 12.0 * jnp.eye(z0.shape[0]) + jnp.diag(jnp.maximum(jnp.where(jnp.isfinite(curv), curv, 0.0), 0.0))
+    info = data + 12.0 * jnp.eye(z0.shape[0]) + jnp.diag(jnp.maximum(jnp.where(jnp.isfinite(curv), curv, 0.0), 0.0))
     return jnp.linalg.inv(info)
 
 
@@ -380,26 +390,25 @@ def sample(
         raise ConfigError(f"seed must be an integer, got {seed!r}")
     if space.dim == 0:
         raise ConfigError("every parameter is fixed: nothing to sample")
-    if any(p.predictor.filters for p in target.problems):
-        raise ConfigError(
-            "sample: a prediction-error fit (focus prediction) is not sampled yet: its likelihood is the Kalman filter's, not a "
-            "noise model of the residuals; its standard errors (--uncertainty) are the likelihood's Hessian's"
-        )
     x = jnp.asarray(x, dtype=jnp.float64)
     prior = prior_term(space, priors)
     for p, k in zip(prior.priors, prior.index):
         if not np.isfinite(float(p.log_density(x[k]))):
             raise ConfigError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
-    noise = fit_noise(x, target, loss)
-    noise_free(target, noise)
+    filters = any(p.predictor.filters for p in target.problems)
+    if filters:  # a prediction-error fit: the Kalman filter's likelihood, its noise in the vector
+        likelihood, noise = filter_likelihood(target)
+    else:
+        noise = fit_noise(x, target, loss)
+        noise_free(target, noise)
+        likelihood = likelihood_target(target, noise)
     z0 = jnp.clip(space.to_unit(x), 0.0, 1.0)
-    cov = _laplace(z0, target, noise, space, prior)
+    cov = _laplace(z0, likelihood if filters else target, noise, space, prior)
     k_init, k_warm, k_draw = jax.random.split(jax.random.key(int(seed)), 3)
     white = Whitening(z0, jnp.linalg.cholesky(cov))
     starts = _inside(white, jax.random.normal(k_init, (chains, z0.shape[0]), dtype=jnp.float64))
     t0 = time.perf_counter()
     mesh = chain_mesh(chains)
-    likelihood = likelihood_target(target, noise)
     states, params = _warmup(jax.random.split(k_warm, chains), starts, likelihood, noise, space, white, prior, int(warmup), mesh)
     jax.block_until_ready(states)
     args = (jax.random.split(k_draw, chains), states, params, likelihood, noise, space, white, prior, int(draws), mesh)
@@ -421,8 +430,8 @@ def sample(
         divergences=int(np.sum(div)),
         steps=float(np.mean(steps)),
         acceptance=float(np.mean(acc)),
-        likelihood=loss.likelihood,
-        noise=_noise_names(target, noise),
+        likelihood="Kalman filter (Gaussian innovations)" if filters else loss.likelihood,
+        noise=noise_names(target, noise),
         wall={"warmup": t1 - t0, "sampling": t2 - t1},
         seed=int(seed),
         priors={n: prior_from_spec(p).spec for n, p in (priors or {}).items()},
@@ -436,26 +445,6 @@ def sample(
             "step_size": np.broadcast_to(np.asarray(params["step_size"], float)[:, None], np.shape(div)).copy(),
         },
     )
-
-
-NOISE_FREE = 1e-9  # a noise scale below this share of its channel's peak: rounding, not noise
-
-
-def noise_free(target: JointProblem, noise: NoiseModel) -> None:
-    """A one-line `ConfigError` where a channel's fitted noise scale is below `NOISE_FREE` of its
-    peak: the data are noise-free (or fitted to rounding), the likelihood is degenerate and its
-    posterior a point the sampler cannot explore."""
-    scale, active = np.asarray(noise.scale), np.asarray(noise.active)
-    for r, p in enumerate(target.problems):
-        peak = np.max(np.abs(np.asarray(p.y_meas)), axis=0)
-        share = scale[r] if p.loss.normalize == "peak" else scale[r] / peak  # the residuals are over the peak, or in units
-        for j, c in enumerate(p.model.outputs):
-            if active[r, j] > 0 and share[j] < NOISE_FREE:
-                raise ConfigError(
-                    f"the data look noise-free: the fitted noise of {c} is {share[j]:.2g} of its peak (rounding), so the likelihood's "
-                    "posterior is a point the sampler cannot explore; sample a fit of noisy recordings (dcjax.analysis.uncertainty "
-                    "gives the linearised errors)"
-                )
 
 
 @filter_jit
@@ -477,18 +466,6 @@ def _inside(white: Whitening, theta):
         return shrink[jnp.argmax(ok)] * t
 
     return jax.vmap(one)(theta)
-
-
-def _noise_names(target: JointProblem, noise: NoiseModel) -> dict[str, float]:
-    """'recording:channel' -> tau in the channel's units (tau / norm)."""
-    out = {}
-    scale, active = np.asarray(noise.scale), np.asarray(noise.active)
-    for r, p in enumerate(target.problems):
-        norm = np.ones(scale.shape[1]) if p.norm is None else np.asarray(p.norm)
-        for j, c in enumerate(p.model.outputs):
-            if active[r, j]:
-                out[f"{r}:{c}" if len(target.problems) > 1 else c] = float(scale[r, j] / norm[j])
-    return out
 
 
 __all__ = ["Posterior", "PriorTerm", "log_posterior", "prior_term", "sample"]

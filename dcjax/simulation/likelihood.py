@@ -17,6 +17,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..compiling import filter_jit
+from ..errors import ConfigError
 from .joint import JointProblem
 from .losses import Loss
 from .objectives import simulate_outputs
@@ -94,3 +95,45 @@ def whitened_residuals(x, target: JointProblem, noise: NoiseModel) -> Float[Arra
     root = jnp.sqrt(noise.information)
     rows = target.each(x, channel_errors)
     return jnp.concatenate([(root[r][:, None] * a[:, : p.n]).reshape(-1) for r, (a, p) in enumerate(zip(rows, target.problems))])
+
+
+def filter_likelihood(target: JointProblem) -> tuple[JointProblem, NoiseModel]:
+    """A prediction-error fit's likelihood: `target` with each recording weighted by its recorded
+    samples, so that its objective (each the innovations' -log L / N) is the whole -log L, and a
+    noise model with nothing active (the filter's noise is in the search vector)."""
+    counts = tuple(float(p.n if p.mask is None else np.sum(np.asarray(p.mask))) for p in target.problems)
+    shape = (len(target.problems), len(target.problems[0].model.outputs))
+    zeros = jnp.zeros(shape, dtype=jnp.float64)
+    return JointProblem(target.problems, counts, target.layout), NoiseModel(target.problems[0].loss, jnp.ones(shape), zeros, zeros, zeros)
+
+
+NOISE_FREE = 1e-9  # a noise scale below this share of its channel's peak: rounding, not noise
+
+
+def noise_free(target: JointProblem, noise: NoiseModel) -> None:
+    """A one-line `ConfigError` where a channel's fitted noise scale is below `NOISE_FREE` of its
+    peak: the data are noise-free (or fitted to rounding), the likelihood is degenerate and its
+    posterior a point the sampler cannot explore."""
+    scale, active = np.asarray(noise.scale), np.asarray(noise.active)
+    for r, p in enumerate(target.problems):
+        peak = np.max(np.abs(np.asarray(p.y_meas)), axis=0)
+        share = scale[r] if p.loss.normalize == "peak" else scale[r] / peak  # the residuals are over the peak, or in units
+        for j, c in enumerate(p.model.outputs):
+            if active[r, j] > 0 and share[j] < NOISE_FREE:
+                raise ConfigError(
+                    f"the data look noise-free: the fitted noise of {c} is {share[j]:.2g} of its peak (rounding), so the likelihood's "
+                    "posterior is a point the sampler cannot explore; sample a fit of noisy recordings (dcjax.analysis.uncertainty "
+                    "gives the linearised errors)"
+                )
+
+
+def noise_names(target: JointProblem, noise: NoiseModel) -> dict[str, float]:
+    """'recording:channel' -> tau in the channel's units (tau / norm)."""
+    out = {}
+    scale, active = np.asarray(noise.scale), np.asarray(noise.active)
+    for r, p in enumerate(target.problems):
+        norm = np.ones(scale.shape[1]) if p.norm is None else np.asarray(p.norm)
+        for j, c in enumerate(p.model.outputs):
+            if active[r, j]:
+                out[f"{r}:{c}" if len(target.problems) > 1 else c] = float(scale[r, j] / norm[j])
+    return out

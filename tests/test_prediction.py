@@ -71,7 +71,7 @@ def test_the_filter_is_the_numpy_filter(substeps, held):
                     ref.dc_field, TRUTH, ahead[k], [u[i - 3 + j]], [u[i - 3 + j]], rec.t[i - 2 + j] - rec.t[i - 3 + j], substeps
                 )
         np.testing.assert_allclose(np.asarray(predict(x, prob, ekf, 3))[3:60], np.array(ahead), rtol=0, atol=1e-8 * np.abs(z).max())
-    w = np.asarray(f.normalised())  # the right model (the input held, as simulated) with the right noise: unit variance
+    w = np.asarray(f.whitened)  # the right model (the input held, as simulated) with the right noise: unit variance
     assert not held or np.all(np.abs(w.mean(axis=0)) < 0.15) and np.all(np.abs(w.var(axis=0) - 1) < 0.2)
 
 
@@ -137,6 +137,20 @@ def test_prediction_error_puts_the_truth_within_three_standard_errors(tmp_path, 
     assert row["predict"] == 1 and set(row["calibration"]) == {"i_a", "omega"}
     simulated = res.validate([other])[0].channels["omega"]["rmse"]
     assert v.channels["omega"]["rmse"] < 0.5 * simulated  # the filter's one-step prediction beats the open-loop simulation
+
+
+@pytest.mark.slow
+def test_a_joint_fit_held_stacked_polishes_and_records_the_likelihood():
+    """Two records of equal length with the noise given and nothing adjusted are held stacked
+    (`StackedJoint`): their polish is still BFGS on the likelihood, and the OF recorded is the
+    target's -log L / N (not a least-squares cost of whitened innovations)."""
+    recs = [process_noise_record(s, n=300, name=f"r{s}")[0] for s in (0, 1)]
+    obs = dcjax.Observation(hold={"u_a": "zoh"}, focus="prediction", initial={"i_a": 0.0, "omega": 0.0},
+                            process={"i_a": 0.0, "omega": Q[1]}, measurement={"i_a": SENSORS[0], "omega": SENSORS[1]})  # fmt: skip
+    res = dcjax.fit(recs, params="table4", search=dcjax.Search(runs=1, budget=600, polish=True), observation=obs)
+    x = np.array([res.best_values[n] for n in res.names])
+    assert res.of == pytest.approx(float(res.target().objective(x)), rel=1e-9, abs=1e-12)
+    assert res.polish is not None and res.polish["of_after"][0] <= res.polish["of_before"][0]
 
 
 @pytest.mark.slow

@@ -151,7 +151,8 @@ def _filters(target) -> bool:
     """A prediction-error fit: its polish minimises the likelihood itself (least squares on the
     whitened innovations would inflate fitted noise, and stalled short of the optimum with the
     noise given: the composition matrix's joint cell)."""
-    return any(isinstance(p.predictor, EKF) for p in getattr(target, "problems", ()))
+    problems = target.problems if isinstance(target, JointProblem) else (target.stacked,)  # a StackedJoint holds them stacked
+    return any(isinstance(p.predictor, EKF) for p in problems)
 
 
 def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float, max_steps: int) -> PolishResult:

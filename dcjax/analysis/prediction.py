@@ -40,7 +40,7 @@ def calibration(whitened: np.ndarray, names: tuple[str, ...]) -> dict[str, dict[
     return {c: {"mean": float(np.mean(w)), "variance": float(np.var(w)), "whiteness": whiteness(w)} for c, w in zip(names, whitened.T)}
 
 
-def _noise_names(model, ekf: EKF, adj) -> dict[str, float]:
+def _filter_noise(model, ekf: EKF, adj) -> dict[str, float]:
     q = np.asarray(ekf.process if adj is None or adj.process is None else adj.process, float)
     r = np.asarray(ekf.measurement if adj is None or adj.measurement is None else adj.measurement, float)
     return {**{f"q_{s}": float(v) for s, v in zip(model.states, q) if v > 0}, **{f"r_{c}": float(v) for c, v in zip(model.outputs, r)}}
@@ -102,7 +102,7 @@ def predicted(result, target: JointProblem, x, steps: int) -> Prediction:
         ekf, estimated = estimate_noise(target, x, rec_starts), True
         problem = eqx.tree_at(lambda p: p.predictor, problem, ekf)
     outputs, whitened = _predict(mx, problem, ekf, adj, steps)
-    return Prediction(np.asarray(outputs), np.asarray(whitened), _noise_names(model, ekf, adj), estimated)
+    return Prediction(np.asarray(outputs), np.asarray(whitened), _filter_noise(model, ekf, adj), estimated)
 
 
 __all__ = ["Prediction", "calibration", "estimate_noise", "predicted"]

@@ -49,11 +49,13 @@ class Tracked:
         return cols, data
 
 
-def _noise(result, target: JointProblem, x):
+def _noise(target: JointProblem, x):
+    """(q per state, r per output): a prediction-error fit's (its fitted noise where searched),
+    else no process noise and the record's own sensor-noise estimate."""
     problem, adj = target.problems[0], target.adjustments(x, 0)
     model = problem.model
     if isinstance(problem.predictor, EKF):
-        q = problem.predictor.process if adj is None or adj.process is None else adj.process[..., :]
+        q = problem.predictor.process if adj is None or adj.process is None else adj.process
         r = problem.predictor.measurement if adj is None or adj.measurement is None else adj.measurement
         return np.asarray(q, float), np.asarray(r, float)
     y = np.asarray(problem.y_meas)
@@ -142,7 +144,7 @@ def track(result, recording: Recording, vary, drift: dict[str, float] | None = N
     duration = float(rec.t[-1] - rec.t[0]) or 1.0
     q_theta = {n: drift.get(n, (DEFAULT_SHARE * abs(values[n])) ** 2 / duration) for n in vary}
     sd0 = {n: start_sd.get(n, DEFAULT_SHARE * abs(values[n])) for n in vary}
-    q, r = _noise(result, target, x)
+    q, r = _noise(target, x)
     adj = target.adjustments(x, 0)
     y0 = initial_state(target.problems[0], (), None if adj is None else adj.y0)
     z0 = jnp.concatenate([jnp.stack(y0), jnp.asarray([values[n] for n in vary])])

@@ -42,15 +42,11 @@ class Filtered(eqx.Module):
 
     innovations: Float[Array, "*batch n c"]  # nu_k: the measured outputs less their one-step prediction
     innovation_covariances: Float[Array, "*batch n c c"]  # S_k
-    whitened: Float[Array, "*batch n c"]  # L_k^-1 nu_k, L_k the Cholesky factor of S_k
+    whitened: Float[Array, "*batch n c"]  # L_k^-1 nu_k, L_k the Cholesky factor of S_k: N(0, 1) and white for a right model
     predicted: Float[Array, "*batch n c"]  # h(x_{k|k-1}): the one-step-ahead outputs (with the offsets)
     states: Float[Array, "*batch n s"]  # x_{k|k}
     covariances: Float[Array, "*batch n s s"]  # P_{k|k}
     log_likelihood: Float[Array, "*batch"]
-
-    def normalised(self) -> Float[Array, "*batch n c"]:
-        """L_k^-1 nu_k: independent N(0, 1) for a right model with the right noise."""
-        return self.whitened
 
 
 def _vector(y: tuple) -> Array:

@@ -206,7 +206,7 @@ def residuals(params, problem: Problem, adjustments: Adjustments | None = None) 
     state estimator (`EKF`): its normalised innovations L_k^-1 nu_k over sqrt(N), channel by
     channel (the likelihood's quadratic part, its noise held)."""
     if isinstance(problem.predictor, EKF):
-        w = kalman_filter(params, problem, problem.predictor, adjustments).normalised()
+        w = kalman_filter(params, problem, problem.predictor, adjustments).whitened
         mask = jnp.ones(problem.n) if problem.mask is None else problem.mask
         w = w * mask[:, None] / jnp.sqrt(jnp.sum(mask))
         return jnp.concatenate([w[..., j] for j in range(w.shape[-1])], axis=-1)

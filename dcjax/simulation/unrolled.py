@@ -26,11 +26,6 @@ def matmul_t(a: Matrix, b: Matrix) -> Matrix:
     return tuple(tuple(_sum(mul(x, y) for x, y in zip(row, other)) for other in b) for row in a)
 
 
-def matvec(a: Matrix, v: Vector) -> Vector:
-    """a v."""
-    return tuple(_sum(mul(x, y) for x, y in zip(row, v)) for row in a)
-
-
 def mul(a, b):
     """a b, where a Python 0 or 1 (a known entry: a selection, the identity) costs nothing."""
     for x, y in ((a, b), (b, a)):
@@ -45,10 +40,6 @@ def mul(a, b):
 def sub(a, b):
     """a - b, nothing to do where b is a Python 0."""
     return a if isinstance(b, float | int) and b == 0 else a - b
-
-
-def transpose(a: Matrix) -> Matrix:
-    return tuple(zip(*a))
 
 
 def add(a: Matrix, b: Matrix) -> Matrix:
@@ -107,11 +98,6 @@ def solve_upper_t(low: Cholesky, b: Vector) -> Vector:
     return tuple(x)
 
 
-def as_matrix(a: Array) -> Matrix:
-    """An (..., n, m) array as rows of (...) arrays."""
-    return tuple(tuple(a[..., i, j] for j in range(a.shape[-1])) for i in range(a.shape[-2]))
-
-
 def stacked(a: Matrix) -> Array:
     """Rows of arrays as one (..., n, m) array."""
     return jnp.stack([jnp.stack(row, axis=-1) for row in a], axis=-2)
@@ -133,15 +119,12 @@ __all__ = [
     "Vector",
     "add",
     "add_diagonal",
-    "as_matrix",
     "cholesky",
     "matmul",
     "matmul_t",
-    "matvec",
     "mul",
     "solve_lower",
     "solve_upper_t",
     "stacked",
     "symmetric",
-    "transpose",
 ]

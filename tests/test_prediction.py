@@ -13,6 +13,7 @@ import dcjax
 from dcjax import cli
 from dcjax.errors import ConfigError
 from dcjax.io import datasets
+from dcjax.simulation import unrolled as um
 from dcjax.simulation.kalman import kalman_filter, predict, prediction_error
 from dcjax.simulation.objectives import objective
 from dcjax.simulation.predictors import EKF
@@ -73,6 +74,23 @@ def test_the_filter_is_the_numpy_filter(substeps, held):
         np.testing.assert_allclose(np.asarray(predict(x, prob, ekf, 3))[3:60], np.array(ahead), rtol=0, atol=1e-8 * np.abs(z).max())
     w = np.asarray(f.whitened)  # the right model (the input held, as simulated) with the right noise: unit variance
     assert not held or np.all(np.abs(w.mean(axis=0)) < 0.15) and np.all(np.abs(w.var(axis=0) - 1) < 0.2)
+
+
+def test_the_written_out_ldl_solves_as_numpy_does():
+    """The filter's square-root-free factorisation S = L D L' (`unrolled.ldl`): S^-1 b and det S
+    as NumPy's, an indefinite S not `positive`; a covariance carried as its upper triangle comes
+    back whole."""
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 3):
+        a = rng.standard_normal((n, n))
+        s = a @ a.T + 0.1 * np.eye(n)
+        b = rng.standard_normal(n)
+        m = tuple(tuple(np.float64(s[i, j]) for j in range(n)) for i in range(n))
+        f = um.ldl(m)
+        np.testing.assert_allclose(np.array(um.solve(f, tuple(b))), np.linalg.solve(s, b), rtol=1e-10)
+        assert float(np.prod(f.d)) == pytest.approx(np.linalg.det(s), rel=1e-10) and bool(um.positive(f))
+        assert um.from_upper(um.upper(m), n) == m
+    assert not bool(um.positive(um.ldl(((1.0, 2.0), (2.0, 1.0))))) and not bool(um.positive(um.ldl(((-1.0, 0.0), (0.0, -1.0)))))
 
 
 def test_a_problem_with_a_filter_scores_its_likelihood_and_bad_settings_are_one_line():

@@ -5,8 +5,8 @@ the first EKF 190x slower than the simulation it filters). Sizes are a model's s
 outputs: a handful."""
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
-import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
@@ -58,43 +58,73 @@ def symmetric(a: Matrix) -> Matrix:
     return tuple(tuple(a[i][j] if i <= j else a[j][i] for j in range(n)) for i in range(n))
 
 
-class Cholesky(tuple):
-    """The lower factor L of a = L L' (rows), with the reciprocals of its diagonal (`inverse`)."""
-
-    inverse: tuple
-
-
-def cholesky(a: Matrix) -> Cholesky:
-    """The lower factor L of a = L L' (a symmetric positive definite; NaN where it is not), the
-    reciprocal of each diagonal entry computed once."""
+def upper(a: Matrix) -> Vector:
+    """The upper triangle of symmetric `a`, row by row: what a loop carries of a covariance (its
+    mirrored entries carried twice were computed twice)."""
     n = len(a)
-    low: list[list] = [[0.0] * n for _ in range(n)]
+    return tuple(a[i][j] for i in range(n) for j in range(i, n))
+
+
+def from_upper(v: Vector, n: int) -> Matrix:
+    """The symmetric n x n matrix of its `upper` triangle."""
+    at = {}
+    k = 0
+    for i in range(n):
+        for j in range(i, n):
+            at[i, j] = at[j, i] = v[k]
+            k += 1
+    return tuple(tuple(at[i, j] for j in range(n)) for i in range(n))
+
+
+class LDL(NamedTuple):
+    """a = L D L' with L unit lower triangular (rows; its diagonal the Python 1.0) and D diagonal:
+    the square-root-free Cholesky factorisation (Golub & Van Loan, Alg. 4.1.2), with the
+    reciprocals of D computed once. A filter's update needs no square root: S^-1 b and
+    nu' S^-1 nu by substitution, log det S = log prod d_j."""
+
+    lower: tuple
+    d: tuple
+    inverse: tuple  # 1 / d_j
+
+
+def ldl(a: Matrix) -> LDL:
+    """The `LDL` factors of symmetric `a` (only its lower triangle read). A d_j <= 0 means `a` is
+    not positive definite: the caller checks `positive`."""
+    n = len(a)
+    low: list[list] = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
+    d: list = [0.0] * n
     inv: list = [0.0] * n
     for j in range(n):
-        d = sub(a[j][j], _sum(mul(low[j][k], low[j][k]) for k in range(j)))
-        inv[j] = jax.lax.rsqrt(d)
-        low[j][j] = d * inv[j]
+        d[j] = sub(a[j][j], _sum(mul(mul(low[j][k], low[j][k]), d[k]) for k in range(j)))
+        inv[j] = 1.0 / d[j]
         for i in range(j + 1, n):
-            low[i][j] = sub(a[i][j], _sum(mul(low[i][k], low[j][k]) for k in range(j))) * inv[j]
-    out = Cholesky(tuple(r) for r in low)
-    out.inverse = tuple(inv)
+            low[i][j] = sub(a[i][j], _sum(mul(mul(low[i][k], low[j][k]), d[k]) for k in range(j))) * inv[j]
+    return LDL(tuple(tuple(r) for r in low), tuple(d), tuple(inv))
+
+
+def positive(f: LDL):
+    """Whether every d_j > 0 (the factored matrix positive definite)."""
+    out = f.d[0] > 0
+    for dj in f.d[1:]:
+        out = out & (dj > 0)
     return out
 
 
-def solve_lower(low: Cholesky, b: Vector) -> Vector:
-    """x with L x = b (forward substitution)."""
-    x: list = []
+def solve_unit_lower(f: LDL, b: Vector) -> Vector:
+    """y with L y = b (forward substitution, unit diagonal)."""
+    y: list = []
     for i in range(len(b)):
-        x.append(sub(b[i], _sum(mul(low[i][k], x[k]) for k in range(i))) * low.inverse[i])
-    return tuple(x)
+        y.append(sub(b[i], _sum(mul(f.lower[i][k], y[k]) for k in range(i))))
+    return tuple(y)
 
 
-def solve_upper_t(low: Cholesky, b: Vector) -> Vector:
-    """x with L' x = b (back substitution on the lower factor)."""
+def solve(f: LDL, b: Vector) -> Vector:
+    """x with L D L' x = b."""
+    y = solve_unit_lower(f, b)
     n = len(b)
     x: list = [0.0] * n
     for i in reversed(range(n)):
-        x[i] = sub(b[i], _sum(mul(low[k][i], x[k]) for k in range(i + 1, n))) * low.inverse[i]
+        x[i] = sub(mul(y[i], f.inverse[i]), _sum(mul(f.lower[k][i], x[k]) for k in range(i + 1, n)))
     return tuple(x)
 
 
@@ -114,17 +144,20 @@ def _sum(terms):
 
 
 __all__ = [
-    "Cholesky",
+    "LDL",
     "Matrix",
     "Vector",
     "add",
     "add_diagonal",
-    "cholesky",
+    "from_upper",
+    "ldl",
     "matmul",
     "matmul_t",
     "mul",
-    "solve_lower",
-    "solve_upper_t",
+    "positive",
+    "solve",
+    "solve_unit_lower",
     "stacked",
     "symmetric",
+    "upper",
 ]

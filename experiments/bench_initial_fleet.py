@@ -3,8 +3,8 @@ N recordings of one DC motor (SD1's, Table 4's truth) under N stepped voltages, 
 rest for 2 ms, simulated by the independent NumPy reference (`dcjax.io.numpy_simulator`, RK4), with
 Gaussian sensor noise of `--noise` of each channel's peak (`bench_many.dc_recordings`). Each recording fitted on its own (`dcjax.fit_each`, Table 4's
 ranges, `--runs` runs of the default search) with the default initial state (a noisy state's start
-fitted: `y0_<state>` within its first sample +- 8 noise sd) and from the first samples
-(`initial=measured`). Prints per parameter the bias (mean relative error) and the spread (sd of
+fitted: `y0_<state>` within its first sample +- 8 noise sd), from the first samples
+(`initial=measured`) and from the first 11 samples' local quadratic at t0 (`initial=smoothed`). Prints per parameter the bias (mean relative error) and the spread (sd of
 the relative errors) of each setting, and how many fitted starts ended at their range's bound.
 
     python -m experiments.bench_initial_fleet [--recordings 50] [--noise 0.005] [--runs 4]
@@ -22,7 +22,11 @@ import dcjax
 
 from .bench_many import dc_recordings
 
-SETTINGS = {"default (fit noisy starts)": None, "measured": dcjax.Observation(initial={"i_a": "measured", "omega": "measured"})}
+SETTINGS = {
+    "default (fit noisy starts)": None,
+    "measured": dcjax.Observation(initial={"i_a": "measured", "omega": "measured"}),
+    "smoothed": dcjax.Observation(initial={"i_a": "smoothed", "omega": "smoothed"}),
+}
 
 
 def main():

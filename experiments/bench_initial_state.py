@@ -1,8 +1,9 @@
 """The default initial state of noisy recordings (issue: honest uncertainty, item 4): three PMSM
 recordings from the independent NumPy reference (`tests/test_initial_noise.recordings`: 0.5 %
 noise on id, iq and omega, starting at rest), fitted (RK4 8 sub-steps, DE 2 runs x 60,000 FEs,
-polished) with the default initial state (each noisy start fitted) and from the first samples
-(`initial=measured` for all three states). Prints, per noise seed, each parameter's error in its
+polished) with the default initial state (each noisy start fitted), from the first samples
+(`initial=measured` for all three states) and from the first samples' local quadratic
+(`initial=smoothed`). Prints, per noise seed, each parameter's error in its
 linearised standard errors, then the RMS, the count beyond 2 and 3 and the largest, per setting.
 
     python -m experiments.bench_initial_state [--seeds 8]
@@ -20,7 +21,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))  # the
 
 import test_initial_noise as case
 
-SETTINGS = {"default": None, "measured": dcjax.Observation(initial={s: "measured" for s in ("id", "iq", "omega")})}
+SETTINGS = {
+    "default": None,
+    "measured": dcjax.Observation(initial={s: "measured" for s in ("id", "iq", "omega")}),
+    "smoothed": dcjax.Observation(initial={s: "smoothed" for s in ("id", "iq", "omega")}),
+}
 
 
 def main(argv=None):

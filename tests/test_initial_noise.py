@@ -109,3 +109,29 @@ def test_a_fitted_start_on_its_bound_is_a_warning(sd1_true):
     with warnings.catch_warnings():
         warnings.filterwarnings("error", message="y0_")
         dcjax.fit(rec, params="table4", search=search)
+
+
+def test_a_smoothed_start_is_the_first_samples_quadratic_at_t0_and_has_less_noise():
+    """`initial={S: "smoothed"}`: the value at t0 of the least-squares quadratic through the first
+    11 samples; on a smooth rise with white noise its error over 400 noise draws has a smaller sd
+    than the first sample's (0.76 sigma in theory, against sigma) and no bias beyond its noise; it starts
+    the problem's state, an offset on the channel is taken off it, and a bad spec names it."""
+    rng = np.random.default_rng(0)
+    t = np.arange(200) * 1e-4
+    clean = 2.0 + 40.0 * t - 3e4 * t**2  # the truth at t0: 2.0
+    first, smoothed = [], []
+    for _ in range(400):
+        rec = dcjax.Recording(t=t, u_a=np.full_like(t, 100.0), i_a=clean + 0.05 * rng.standard_normal(t.size), omega=1e4 * t)
+        first.append(float(rec["i_a"][0]) - 2.0)
+        smoothed.append(dcjax.Observation(initial={"i_a": "smoothed"}).initial_values(dcjax.DC(), rec)["i_a"] - 2.0)
+    assert 0.65 * 0.05 < np.std(smoothed) < 0.85 * np.std(first) and abs(np.mean(smoothed)) < 3 * 0.05 / np.sqrt(400)
+    k = 11
+    want = np.polyfit(t[:k] / t[k - 1], rec["i_a"][:k], 2)[2]
+    prob = dcjax.fitting.planning.plan("dc", observation=dcjax.Observation(initial={"i_a": "smoothed", "omega": 0.0})).setup(
+        [rec], "table4"
+    )
+    assert float(prob.problems[0].y0[0]) == pytest.approx(want, rel=1e-12)
+    with pytest.raises(dcjax.ConfigError, match="a number, measured, smoothed, derivative or fit"):
+        dcjax.Observation(initial={"i_a": "smooth"})
+    with pytest.raises(dcjax.ConfigError, match="initial: omega=smoothed but the recording has no channel omega"):
+        dcjax.Observation(initial={"omega": "smoothed"}).initial_values(dcjax.DC(), dcjax.Recording(t=t, u_a=t, i_a=t))

@@ -120,7 +120,19 @@ SENSOR_CASE = dataclasses.replace(DC_CASE, model=SensorDC(), sensors=ref.dc_sens
 CASES["sensor"] = SENSOR_CASE  # an output equation: an ODE model and a discrete-time one
 CASES["sensor-discrete"] = dataclasses.replace(SENSOR_CASE, model=SensorEulerDC(), field=ref.dc_euler_map, discrete=True)
 LENGTHS = {"one": (240,), "equal": (240, 240), "close": (240, 216), "far": (240, 120), "far-padded": (240, 120)}
-FEATURES = ("plain", "local", "offset", "delay", "initial-fit", "initial-derivative", "measure", "zoh", "zoh-delay", "prediction")
+FEATURES = (
+    "plain",
+    "local",
+    "offset",
+    "delay",
+    "initial-fit",
+    "initial-derivative",
+    "offset-smoothed",
+    "measure",
+    "zoh",
+    "zoh-delay",
+    "prediction",
+)
 # Joint fits take the features together (a cell compiles a search and a polish, 5-10 s on 2 cores:
 # one cell per feature and length would not fit the test time): every feature at once, and the
 # derivative start with the others on padded lengths.
@@ -128,6 +140,7 @@ COMBINED = {
     "all": ("local", "offset", "delay", "initial-fit"),
     "all-derivative": ("local", "offset", "delay", "initial-derivative"),
     "zoh-delay": ("zoh", "delay"),  # a held input delayed: the step moves whole
+    "offset-smoothed": ("offset", "initial-smoothed"),  # the offset channel's state starts at its smoothed first samples less the offset
     "all-prediction": ("local", "offset", "delay", "initial-fit", "prediction"),  # every feature under the Kalman filter
 }
 JOINT = {"equal": ("all", "all-prediction"), "close": ("all", "all-derivative"), "far": ("all",), "far-padded": ("all",)}
@@ -224,12 +237,21 @@ def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
     return tuple(recs), truth
 
 
+def initial_specs(case: Case, f: tuple[str, ...]) -> dict:
+    """The cell's `initial`: a fitted start, a derivative start, a smoothed start (of the offset
+    channel's state), or the defaults."""
+    for feature, spec in (("initial-fit", {case.fitted: "fit"}), ("initial-derivative", {case.speed: "derivative"})):
+        if feature in f:
+            return spec
+    return {case.offset: "smoothed"} if "initial-smoothed" in f else {}
+
+
 def observation(case: Case, feature: str, recs: tuple = ()) -> dcjax.Observation:
     f = parts(feature)
     model = case.model
     sensors = {c: 1e-3 * max(float(np.max(np.abs(r[c]))) for r in recs) for c in model.outputs} if "prediction" in f else {}
     return dcjax.Observation(
-        initial={case.fitted: "fit"} if "initial-fit" in f else {case.speed: "derivative"} if "initial-derivative" in f else {},
+        initial=initial_specs(case, f),
         offsets=(case.offset,) if "offset" in f else (),
         delays=(case.delay,) if "delay" in f else (),
         measure=case.measure if "measure" in f else None,

@@ -148,7 +148,8 @@ def _add_experiment_arguments(f: argparse.ArgumentParser) -> None:
         "--initial",
         type=mapping,
         default={},
-        help="initial states, STATE=SPEC pairs: a number, measured (default where measured), derivative (default for a "
+        help="initial states, STATE=SPEC pairs: a number, measured (default where measured), smoothed (the first samples' "
+        "local quadratic at t0), derivative (default for a "
         "derivative state) or fit (a free y0_STATE per recording), e.g. for the DC motor omega=fit",
     )
     g.add_argument(

@@ -3,10 +3,11 @@ initial value, sensor offsets on measured channels, delays of inputs (issue 28),
 are compared (`measure`: the model's measured states unless given) and how each input acts
 between its samples (`hold`: linear, eq. 29, or a zero-order hold).
 
-An initial state is given per state as a number, `"measured"` (the first sample), `"derivative"`
-(the slope at the first sample of a quadratic through the first samples of the state it is
-`Model.derivative_of`; the default for such a state) or `"fit"` (a free parameter `y0_<state>`,
-one per recording). Any other state starts at 0 (`Observation.notes`).
+An initial state is given per state as a number, `"measured"` (the first sample), `"smoothed"`
+(the value at the first sample of a least-squares quadratic through the first `START_SAMPLES`
+samples: less noise than the first sample where the transient is smooth over them),
+`"derivative"` (the slope there of the quadratic through the state it is `Model.derivative_of`;
+the default for such a state) or `"fit"` (a free parameter `y0_<state>`, one per recording). Any other state starts at 0 (`Observation.notes`).
 
 The default of a compared state is decided from the data (`Observation.with_defaults`): its first
 sample where the channel is clean, a fitted `y0_<state>` where it is noisy (`noise_level` above
@@ -32,7 +33,8 @@ from ..simulation.losses import SSE, Loss, get_loss
 from ..simulation.predictors import EKF, Predictor, Simulation
 from ..simulation.problem import HOLDS, held_inputs
 
-SPECS = ("measured", "derivative", "fit")
+SPECS = ("measured", "smoothed", "derivative", "fit")
+FROM_SAMPLES = ("measured", "smoothed")  # a start read from the state's own channel
 FOCUSES = ("simulation", "prediction")
 NOISE_SHARE = 1e-4  # a channel is noisy where its noise level exceeds this share of its range
 OFFSET_SHARE = 0.10  # an offset's automatic range: +- this share of its channel's peak
@@ -49,7 +51,7 @@ class Observation:
         dcjax.Observation(measure=("omega",))  # the DC motor with only its speed logged
 
     `loss`: a `dcjax.Loss` or its spec (`"sse"`, the default, eq. 24/27; `"l1"`; `"huber:DELTA"`);
-    `initial`: state -> a number, `"measured"`, `"derivative"` or `"fit"` (a free `y0_<state>` per
+    `initial`: state -> a number, `"measured"`, `"smoothed"`, `"derivative"` or `"fit"` (a free `y0_<state>` per
     recording); `offsets`: measured channels with an additive sensor offset `offset_<channel>`;
     `delays`: inputs with a delay `delay_<input>` in seconds; `measure`: the states compared with
     the recordings (default: the model's `measured`; `Model.measuring`); `hold`: input -> "zoh"
@@ -76,7 +78,7 @@ class Observation:
         if not isinstance(self.loss, (str, Loss)):
             raise ConfigError(f"loss must be sse, l1, huber:DELTA or a dcjax Loss (dcjax.L1(), dcjax.Huber(delta=0.1)), got {self.loss!r}")
         if not isinstance(self.initial, Mapping):
-            raise ConfigError(f"initial must be a state -> number|'measured'|'derivative'|'fit' mapping, got {self.initial!r}")
+            raise ConfigError(f"initial must be a state -> number|'measured'|'smoothed'|'derivative'|'fit' mapping, got {self.initial!r}")
         for what in ("offsets", "delays"):
             names = getattr(self, what)
             if isinstance(names, str) or not all(isinstance(n, str) for n in names):
@@ -214,7 +216,7 @@ class Observation:
             return Simulation()
         model = self.observed(model)
         numbers = lambda given: {k: v for k, v in given.items() if v != "fit"}
-        starts = tuple(s for s in model.states if s in model.outputs and self.spec_of(s, model, recording) == "measured")
+        starts = tuple(s for s in model.states if s in model.outputs and self.spec_of(s, model, recording) in FROM_SAMPLES)
         return EKF.of(model, numbers(self.process), {c: 1.0 for c in model.outputs} | numbers(self.measurement), measured_start=starts)
 
     def parameter_names(self, model: Model | None = None) -> tuple[str, ...]:
@@ -341,35 +343,53 @@ def initial_spec(spec, state: str = "state") -> "float | str":
         text = spec.strip().lower()
         if text in SPECS:
             return text
-    return finite_number(spec, f"initial: {state}", "a number, measured, derivative or fit")
+    return finite_number(spec, f"initial: {state}", "a number, measured, smoothed, derivative or fit")
 
 
 def initial_value(state: str, spec, model: Model, recording: Recording) -> float:
     """The number a non-fitted spec gives for `recording`."""
-    if spec == "measured":
+    if spec in FROM_SAMPLES:
         if state not in recording.channels:
-            raise ConfigError(f"{recording._where()}initial: {state}=measured but the recording has no channel {state}")
-        return float(recording[state][0])
+            raise ConfigError(f"{recording._where()}initial: {state}={spec} but the recording has no channel {state}")
+        return float(recording[state][0]) if spec == "measured" else value_at_start(recording, state)
     if spec == "derivative":
         return derivative_at_start(recording, model.derivative_of[state], state)
     return float(spec)
 
 
-START_SAMPLES = 11  # the local quadratic of `derivative_at_start`
+START_SAMPLES = 11  # the local quadratic of `_start_quadratic` ("smoothed", "derivative")
+
+
+def _start_quadratic(recording: Recording, channel: str) -> tuple[np.ndarray, float] | None:
+    """(c2, c1, c0) of the least-squares quadratic in s = (t - t0) / T through the first
+    `START_SAMPLES` samples of `channel` (T their span), and T; None below 3 samples."""
+    k = min(len(recording), START_SAMPLES)
+    t = np.asarray(recording.t[:k], float) - float(recording.t[0])
+    if k < 3:
+        return None
+    return np.polyfit(t / t[-1], np.asarray(recording[channel][:k], float), 2), float(t[-1])
+
+
+def value_at_start(recording: Recording, channel: str) -> float:
+    """`channel` at the first sample as the local quadratic of `_start_quadratic` puts it (a
+    Savitzky-Golay value at the edge: its noise sd is 0.76 sigma over 11 samples, the first
+    sample's sigma; a curvature beyond quadratic over them biases it)."""
+    fit = _start_quadratic(recording, channel)
+    return float(recording[channel][0]) if fit is None else float(fit[0][2])
 
 
 def derivative_at_start(recording: Recording, source: str, state: str = "") -> float:
-    """d(source)/dt at the first sample: the slope at t0 of a least-squares quadratic through the
-    first `START_SAMPLES` samples (a Savitzky-Golay derivative at the edge; its noise is about
-    sigma / (h K^1.5), and a filter's edge transient does not enter)."""
+    """d(source)/dt at the first sample: the slope at t0 of `_start_quadratic` (a Savitzky-Golay
+    derivative at the edge; its noise is about sigma / (h K^1.5), and a filter's edge transient
+    does not enter)."""
     if source not in recording.channels:
         raise ConfigError(f"{recording._where()}initial: {state}=derivative needs channel {source}, which the recording lacks")
-    k = min(len(recording), START_SAMPLES)
-    t = np.asarray(recording.t[:k], float) - float(recording.t[0])
-    y = np.asarray(recording[source][:k], float)
-    if k < 3:
-        return float((y[-1] - y[0]) / t[-1]) if k == 2 and t[-1] > 0 else 0.0
-    return float(np.polyfit(t / t[-1], y, 2)[1] / t[-1])
+    fit = _start_quadratic(recording, source)
+    if fit is None:
+        t, y = np.asarray(recording.t, float), np.asarray(recording[source], float)
+        return float((y[1] - y[0]) / (t[1] - t[0])) if len(y) == 2 and t[1] > t[0] else 0.0
+    coef, span = fit
+    return float(coef[1] / span)
 
 
 def parameter_unit(name: str, model: Model) -> str:

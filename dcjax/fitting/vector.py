@@ -20,7 +20,7 @@ from ..models import Model
 from ..models.parameters import Parameter, Parameters
 from ..models.space import Space
 from ..simulation.joint import Layout
-from .observation import Observation, parameter_unit
+from .observation import FROM_SAMPLES, Observation, parameter_unit
 
 _INDEXED = re.compile(r"^(.+)\[(\d+)\]$")
 
@@ -88,11 +88,11 @@ def _noise_columns(observation: Observation, model: Model, col, n_rec: int) -> d
 
 
 def measured_start(observation: Observation, model: Model) -> tuple[int, ...]:
-    """The offset channels whose state starts at its measured first sample (less the offset); a
+    """The offset channels whose state starts at its measured (or smoothed) first sample (less the offset); a
     model with an output equation has none (its outputs are not its states)."""
     if model.has_output_equation:
         return ()
-    return tuple(j for j, c in enumerate(observation.offsets) if observation.initial.get(c, "measured") == "measured")
+    return tuple(j for j, c in enumerate(observation.offsets) if observation.initial.get(c, "measured") in FROM_SAMPLES)
 
 
 def layout_of(names: tuple[str, ...], model: Model, observation: Observation, n_rec: int) -> Layout:

@@ -59,8 +59,8 @@ def symmetric(a: Matrix) -> Matrix:
 
 
 def upper(a: Matrix) -> Vector:
-    """The upper triangle of symmetric `a`, row by row: what a loop carries of a covariance (its
-    mirrored entries carried twice were computed twice)."""
+    """The upper triangle of symmetric `a`, row by row: what a loop carries of a covariance
+    (each entry once)."""
     n = len(a)
     return tuple(a[i][j] for i in range(n) for j in range(i, n))
 

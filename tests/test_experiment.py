@@ -143,7 +143,7 @@ def test_initial_specs(sd1):
     t = np.linspace(0, 1, 1001)
     rec = dcjax.Recording(t=t, q=np.sin(2 * np.pi * t), name="pos")
     assert derivative_at_start(rec, "q") == pytest.approx(2 * np.pi, rel=2e-2)
-    for bad, match in [({"theta": 1.0}, "unknown state"), ({"omega": "guess"}, "number, measured, derivative or fit"),
+    for bad, match in [({"theta": 1.0}, "unknown state"), ({"omega": "guess"}, "number, measured, smoothed, derivative or fit"),
                        ({"omega": "derivative"}, "derivative_of")]:  # fmt: skip
         with pytest.raises(ValueError, match=match):
             Observation(initial=bad).check(M)
@@ -153,7 +153,7 @@ def test_initial_specs(sd1):
     "extra,match",
     [
         (["--const", "kp"], "--const"),
-        (["--initial", "omega=sideways"], "number, measured, derivative or fit"),
+        (["--initial", "omega=sideways"], "number, measured, smoothed, derivative or fit"),
         (["--initial", "theta=0"], "unknown state 'theta'"),
         (["--local", "Tla"], "--local needs a joint fit"),
         (["--local", "Rx", "SD2"], "local: unknown parameter Rx"),

@@ -141,9 +141,10 @@ COMBINED = {
     "all-derivative": ("local", "offset", "delay", "initial-derivative"),
     "zoh-delay": ("zoh", "delay"),  # a held input delayed: the step moves whole
     "offset-smoothed": ("offset", "initial-smoothed"),  # the offset channel's state starts at its smoothed first samples less the offset
+    "all-smoothed": ("local", "offset", "delay", "initial-smoothed"),  # the smoothed start in a joint fit of padded lengths
     "all-prediction": ("local", "offset", "delay", "initial-fit", "prediction"),  # every feature under the Kalman filter
 }
-JOINT = {"equal": ("all", "all-prediction"), "close": ("all", "all-derivative"), "far": ("all",), "far-padded": ("all",)}
+JOINT = {"equal": ("all", "all-prediction"), "close": ("all", "all-derivative", "all-smoothed"), "far": ("all",), "far-padded": ("all",)}
 # The output-equation cases: each feature that reads the outputs (offsets on an output, a local
 # parameter, a delay, a held input, a fitted start of a state that is not an output) on one
 # recording, and every one at once on two of equal length (no encoder variant: the derivative and
@@ -303,7 +304,7 @@ CELLS = [
     for f in (FEATURES if ln == "one" else JOINT[ln])
     if not (ln == "far-padded" and CASES[m].discrete)  # a map is not padded: "far" is its cell
     if CASES[m].sensors is None or f in SENSOR_CELLS.get(ln, ())
-    if not (m == "pmsm" and (ln, f) in (("far", "all"), ("close", "all")))  # the DC cells hold those lengths; 19 s of the suite
+    if not (m == "pmsm" and (ln, f) in (("far", "all"), ("close", "all"), ("close", "all-smoothed")))  # the DC cells hold those lengths; 25 s of the suite
     if "prediction" not in parts(f) or (m, ln) in PREDICTION_CELLS
 ]
 

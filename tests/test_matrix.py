@@ -304,7 +304,9 @@ CELLS = [
     for f in (FEATURES if ln == "one" else JOINT[ln])
     if not (ln == "far-padded" and CASES[m].discrete)  # a map is not padded: "far" is its cell
     if CASES[m].sensors is None or f in SENSOR_CELLS.get(ln, ())
-    if not (m == "pmsm" and (ln, f) in (("far", "all"), ("close", "all"), ("close", "all-smoothed")))  # the DC cells hold those lengths; 25 s of the suite
+    if not (
+        m == "pmsm" and (ln, f) in (("far", "all"), ("close", "all"), ("close", "all-smoothed"))
+    )  # the DC cells hold those lengths; 25 s of the suite
     if "prediction" not in parts(f) or (m, ln) in PREDICTION_CELLS
 ]
 

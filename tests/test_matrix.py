@@ -442,8 +442,8 @@ AUTO_CELLS = [
 def test_nd_autos_reference_carries_every_feature(model_key, lengths_key, feature):
     """`AutoSubsteps`' adaptive diffrax reference (`dcjax.simulation.diffrax_reference`) at the
     truth, each recording with its own parameters (local), fitted initial state, delayed and held
-    inputs, equals the independent NumPy reference's data (offsets added) to 1e-8 of the peaks;
-    and a fit with `AutoSubsteps` takes the features (once refused)."""
+    inputs, equals the independent NumPy reference's data (offsets added) to 1e-8 of the peaks
+    (a fit with `AutoSubsteps` and the features: the next test)."""
     from dcjax.fitting.planning import plan
     from dcjax.simulation.diffrax_reference import reference_simulate_jit
 
@@ -461,10 +461,18 @@ def test_nd_autos_reference_carries_every_feature(model_key, lengths_key, featur
         got = got + (0.0 if adj is None or adj.offset is None else np.asarray(adj.offset))
         err = np.max(np.abs(got - np.asarray(p.y_meas)) / np.max(np.abs(np.asarray(p.y_meas)), axis=0))
         assert err < 1e-8, (r, err)
-    if lengths_key != "far":
-        res = dcjax.fit(list(recs), model, start_parameters(model, truth, feature, case, len(recs)), search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature), integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-6))  # fmt: skip
-        auto = res.settings["nd_auto"]
-        assert auto["converged"] and auto["reference_error"] <= 1e-6 and set(res.best_values) == set(truth)
+
+
+@pytest.mark.slow  # the fast run has the reference above and the features' fit with RK4 (`test_cell_recovers_the_truth`)
+@pytest.mark.parametrize("model_key,lengths_key,feature", [pytest.param(*c, id="-".join(c)) for c in AUTO_CELLS if c[1] != "far"])
+def test_a_fit_with_nd_auto_takes_every_feature(model_key, lengths_key, feature):
+    """A fit with `AutoSubsteps` takes local parameters, a fitted initial state, offsets, delayed
+    and held inputs (once refused): its ND converges to the reference within the tolerance."""
+    case = CASES[model_key]
+    recs, truth = data(model_key, lengths_key, feature)
+    res = dcjax.fit(list(recs), case.model, start_parameters(case.model, truth, feature, case, len(recs)), search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature), integrator=dcjax.AutoSubsteps(dcjax.RK4(), tol=1e-6))  # fmt: skip
+    auto = res.settings["nd_auto"]
+    assert auto["converged"] and auto["reference_error"] <= 1e-6 and set(res.best_values) == set(truth)
 
 
 @pytest.mark.parametrize("model_key", ["dc", "discrete"])

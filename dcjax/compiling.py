@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax
+from jax.core import Tracer
 
 LEAN = {"xla_cpu_use_fusion_emitters": False}
 QUICK = {"xla_backend_optimization_level": 2}  # a short search: LLVM level 2 (XLA:CPU's default is 3)
@@ -52,4 +53,21 @@ def filter_jit(fn: Callable | None = None, *, options: dict | None = None) -> Ca
     return call
 
 
-__all__ = ["LEAN", "QUICK", "filter_jit"]
+def compiled_when_eager(fn: Callable) -> Callable:
+    """`fn` as it is where an argument is traced (inside the caller's `jit`, `vmap` or `grad`: part
+    of the caller's program), and compiled (`filter_jit`, `LEAN`: one executable per structure
+    of the arguments) where none is: an eager call of a simulation or an objective from a
+    notebook, a test or a report is then one program, not its few dozen operations each
+    compiled and dispatched on its own (`experiments/bench_eager.py`)."""
+    compiled = filter_jit(fn)
+
+    @functools.wraps(fn)
+    def call(*args):
+        if any(isinstance(leaf, Tracer) for leaf in jax.tree.leaves(args)):
+            return fn(*args)
+        return compiled(*args)
+
+    return call
+
+
+__all__ = ["LEAN", "QUICK", "compiled_when_eager", "filter_jit"]

@@ -172,6 +172,40 @@ def test_population_vmap_loop_jit(sd1):
     np.testing.assert_allclose(of_b, of_l, rtol=1e-13)
 
 
+def test_an_eager_call_is_one_program_compiled_once_and_a_traced_one_part_of_its_caller(sd1, sd1_true):
+    """`simulate`, `objective` and a joint objective called eagerly run one compiled program
+    (`compiled_when_eager`): a second call of the same structure compiles nothing, and equals
+    the function traced inside the caller's `jit` (which compiles no program of its own)."""
+    from dcjax.simulation import joint
+    from dcjax.simulation import objectives as O
+
+    short = Recording(t=sd1.t[:123], channels={c: sd1[c][:123] for c in ("u_a", "i_a", "omega")}, name="SD1-123")
+    prob = make_problem(short)
+    x = jnp.asarray([sd1_true[n] for n in DC.names])
+    pop = x * (1.0 + 0.01 * jnp.arange(6.0))[:, None]
+    target = joint.joint_problem([prob, make_problem(short.replace(name="again"))], None)
+    for fn, args in ((O._simulate, (x, prob, None)), (O._objective, (pop, prob, None))):
+        once = fn(*args)
+        np.testing.assert_allclose(jax.jit(lambda *a, fn=fn: fn(*a))(*args), once, rtol=1e-13)
+        outer = jax.make_jaxpr(lambda *a, fn=fn: fn(*a))(*args).jaxpr
+        assert "compiled" not in [e.params.get("name") for e in outer.eqns if e.primitive.name in ("pjit", "jit")]
+    compiles = []
+
+    def listen(name, duration, **kw):
+        if "backend_compile" in name:
+            compiles.append(name)
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        for fn, args in ((simulate, (x, prob)), (objective, (pop, prob)), (target.objective, (pop[:, : len(x)],))):
+            fn(*args)
+            before = len(compiles)
+            fn(*args)
+            assert len(compiles) == before, fn
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+
+
 def test_objective_at_truth_and_sensitivity(sd1, sd1_true):
     prob = make_problem(sd1)
     of0 = float(objective(sd1_true, prob))

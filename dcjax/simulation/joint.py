@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..compiling import compiled_when_eager
 from ..errors import ConfigError
 from ..models.base import DiscreteModel
 from .adjustments import Adjustments
@@ -264,6 +265,7 @@ class JointProblem(eqx.Module):
     def adjustments(self, x, r: int) -> Adjustments | None:
         return self.layout.adjustments(x, r, self.problems[r])
 
+    @compiled_when_eager
     def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
         """sum_r w_r OF_r(x), OF_r the recording's objective with its parameters and adjustments;
         recordings of equal length and structure are evaluated stacked (`groups`), the sum is
@@ -360,6 +362,7 @@ class StackedJoint(eqx.Module):
     weights: tuple[float, ...] = eqx.field(static=True)
     layout: Layout = eqx.field(static=True)
 
+    @compiled_when_eager
     def objective(self, x: Float[Array, "*batch D"]) -> Float[Array, "*batch"]:
         ofs = over_stack(objective, self.layout, self.stacked, x)
         return weighted_in_order(self.weights, ofs)

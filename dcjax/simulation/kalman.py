@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..compiling import compiled_when_eager
 from ..errors import ConfigError
 from . import unrolled as um
 from .adjustments import Adjustments, input_pieces
@@ -134,7 +135,12 @@ def kalman_filter(params, problem: Problem, ekf: EKF, adjustments: Adjustments |
     or a population (*batch, P): one filter per member, its small matrices written out,
     `dcjax.simulation.unrolled`); `adjustments` (batched like `params`): a fitted initial
     state, sensor offsets, input delays, the noise a fit searches."""
-    return _filter(params, problem, ekf, adjustments, record=True)  # pyright: ignore[reportReturnType]
+    return _recorded(problem.model.as_array(params), problem, ekf, adjustments)  # pyright: ignore[reportReturnType]
+
+
+@compiled_when_eager
+def _recorded(x, problem: Problem, ekf: EKF, adjustments: Adjustments | None) -> "Filtered | Array":
+    return _filter(x, problem, ekf, adjustments, record=True)
 
 
 def _filter(params, problem: Problem, ekf: EKF, adjustments: Adjustments | None, record: bool) -> "Filtered | Array":

@@ -4,6 +4,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ..compiling import compiled_when_eager
 from ..errors import ConfigError
 from ..io.recording import Recording, as_recording
 from .adjustments import Adjustments, input_pieces
@@ -50,14 +51,18 @@ def simulate(params, problem: "Problem | Recording", adjustments: Adjustments | 
     states are returned without sensor offsets). `problem` may also be a `Recording` (its
     inputs and constants suffice) with `model=` (default: the paper's DC drive)."""
     problem = as_problem(problem, model)
+    x = problem.model.as_array(params)
     mode = kernel_mode()
-    if mode is not None and adjustments is None:
-        x = problem.model.as_array(params)
-        if x.ndim == 2:
-            return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
-    if problem.integrator.per_member and jnp.ndim(problem.model.as_array(params)) >= 2:
-        return jax.vmap(lambda xi, ai: simulate(xi, problem, ai))(problem.model.as_array(params), adjustments)
-    return simulate_scan(params, problem, adjustments)
+    if mode is not None and adjustments is None and x.ndim == 2:
+        return simulate_kernel(x, problem, interpret=mode == "interpret", block=BLOCK if mode == "compiled" else 8)
+    return _simulate(x, problem, adjustments)
+
+
+@compiled_when_eager
+def _simulate(x, problem: Problem, adjustments: Adjustments | None):
+    if problem.integrator.per_member and x.ndim >= 2:
+        return jax.vmap(lambda xi, ai: _simulate(xi, problem, ai))(x, adjustments)
+    return simulate_scan(x, problem, adjustments)
 
 
 # Populations of 8 * LANES members or more are padded to a multiple of LANES (repeating the last
@@ -88,21 +93,25 @@ def objective(params, problem: Problem, adjustments: Adjustments | None = None) 
     Another `problem.loss` (`dcjax.simulation.losses`) scores each residual with its rho, and
     `adjustments` (batched like `params`) fit the initial state, sensor offsets and input delays;
     both are evaluated by the scan (the kernel computes eq. 24/27 only)."""
-    if isinstance(problem.predictor, EKF):  # prediction error: the innovations' likelihood (`dcjax.simulation.kalman`)
-        return prediction_error(params, problem, problem.predictor, adjustments)
-    plain = _plain(problem, adjustments)
-    mode = kernel_mode()
-    if mode is not None and plain:
-        x = problem.model.as_array(params)
-        if x.ndim == 2:
-            return objective_kernel(x, problem, interpret=mode == "interpret", block=_block(x, mode))
     x = problem.model.as_array(params)
+    mode = kernel_mode()
+    if mode is not None and _plain(problem, adjustments) and x.ndim == 2 and not isinstance(problem.predictor, EKF):
+        return objective_kernel(x, problem, interpret=mode == "interpret", block=_block(x, mode))
+    return _objective(x, problem, adjustments)
+
+
+@compiled_when_eager
+def _objective(x, problem: Problem, adjustments: Adjustments | None):
+    """`objective` of a parameter array, by the scan."""
+    if isinstance(problem.predictor, EKF):  # prediction error: the innovations' likelihood (`dcjax.simulation.kalman`)
+        return prediction_error(x, problem, problem.predictor, adjustments)
+    plain = _plain(problem, adjustments)
     if x.ndim >= 2 and problem.integrator.per_member:  # an adaptive step per member, not one for the population
-        return jax.vmap(lambda xi, ai: objective(xi, problem, ai))(x, adjustments)
+        return jax.vmap(lambda xi, ai: _objective(xi, problem, ai))(x, adjustments)
     if x.ndim == 2 and x.shape[0] >= 8 * LANES and x.shape[0] % LANES:  # whole vector lanes, no scalar tail
         p = x.shape[0]
         pad = lambda a: jnp.pad(a, ((0, -p % LANES),) + ((0, 0),) * (a.ndim - 1), mode="edge")
-        return objective(pad(x), problem, jax.tree.map(pad, adjustments))[:p]
+        return _objective(pad(x), problem, jax.tree.map(pad, adjustments))[:p]
     if not plain:
         return _finite_or_inf(_scored_scan(x, problem, adjustments))
     c, y = prepare(x, problem)

@@ -8,6 +8,7 @@ import pytest
 
 import dcjax
 from dcjax import make_problem, objective
+from dcjax.fitting.runs import QUICK_COMPILE
 from dcjax.models.dc import TABLE29, load_torque_precision
 from dcjax.models.precision import unit_precision
 from dcjax.strategies import make_strategy, run
@@ -34,7 +35,8 @@ def sd1_fn(sd1):
 
 def _run(fn, memory, precision=PREC, budget=2800, method="de-rand-1-exp", seed=0, **kw):
     s = make_strategy(method)
-    return jax.jit(lambda k: run(s, k, fn, budget, 7, memory=memory, precision=precision, **kw))(jax.random.PRNGKey(seed))
+    run_of = lambda k: run(s, k, fn, budget, 7, memory=memory, precision=precision, **kw)
+    return jax.jit(run_of, compiler_options=QUICK_COMPILE)(jax.random.PRNGKey(seed))  # as dcjax compiles a short search
 
 
 @pytest.mark.slow

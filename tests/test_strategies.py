@@ -7,6 +7,7 @@ import pytest
 
 import dcjax
 from dcjax import make_problem, objective
+from dcjax.fitting.runs import QUICK_COMPILE
 from dcjax.strategies import DEBest1Bin, Evosax, State, make_strategy, run
 from dcjax.strategies.base import apply_bounds, distinct_indices, evaluate, index_below
 from dcjax.strategies.de import binomial_crossover, exponential_crossover
@@ -21,7 +22,9 @@ def sphere(z):
 
 def _run(method, fn, budget, seed=0, **kw):
     s = make_strategy(method, **kw)
-    return jax.jit(lambda k: run(s, k, fn, budget, 7))(jax.random.PRNGKey(seed))
+    return jax.jit(lambda k: run(s, k, fn, budget, 7), compiler_options=QUICK_COMPILE)(
+        jax.random.PRNGKey(seed)
+    )  # as dcjax compiles a short search
 
 
 @pytest.mark.slow

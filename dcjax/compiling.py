@@ -20,6 +20,14 @@ LEAN = {"xla_cpu_use_fusion_emitters": False}
 QUICK = {"xla_backend_optimization_level": 2}  # a short search: LLVM level 2 (XLA:CPU's default is 3)
 
 
+def _split(args: tuple) -> tuple:
+    """(the array leaves, the structure, the other leaves) of `args`: what `filter_jit` traces,
+    and the static part it hashes (lists become structure)."""
+    dynamic, static = eqx.partition(args, eqx.is_array)
+    leaves, treedef = jax.tree.flatten(static)
+    return dynamic, treedef, tuple(leaves)
+
+
 def filter_jit(fn: Callable | None = None, *, options: dict | None = None) -> Callable:
     """`eqx.filter_jit(fn)` compiled with XLA compiler `options` (default `LEAN`; `{}`: XLA's own): the array
     leaves of the positional arguments are traced, everything else is static (hashed), as
@@ -33,21 +41,16 @@ def filter_jit(fn: Callable | None = None, *, options: dict | None = None) -> Ca
         args = eqx.combine(dynamic, jax.tree.unflatten(treedef, leaves))
         return fn(*args)
 
-    def split(args):
-        dynamic, static = eqx.partition(args, eqx.is_array)
-        leaves, treedef = jax.tree.flatten(static)  # the static part as hashable pieces (lists become structure)
-        return dynamic, treedef, tuple(leaves)
-
     @functools.wraps(fn)
     def call(*args):
-        return compiled(*split(args))
+        return compiled(*_split(args))
 
     def ahead(*args):
         """The executable for `args` compiled now (ahead of a timed call): a function of the same arguments."""
-        executable = compiled.lower(*split(args)).compile()
-        return lambda *a: executable(split(a)[0])
+        executable = compiled.lower(*_split(args)).compile()
+        return lambda *a: executable(_split(a)[0])
 
-    call.lower = lambda *args: compiled.lower(*split(args))  # pyright: ignore[reportFunctionMemberAccess]
+    call.lower = lambda *args: compiled.lower(*_split(args))  # pyright: ignore[reportFunctionMemberAccess]
     call.ahead = ahead  # pyright: ignore[reportFunctionMemberAccess]
     call.clear_cache = compiled.clear_cache  # pyright: ignore[reportFunctionMemberAccess]
     return call
@@ -58,12 +61,17 @@ def compiled_when_eager(fn: Callable) -> Callable:
     of the caller's program), and compiled (`filter_jit`, `LEAN`: one executable per structure
     of the arguments) where none is: an eager call of a simulation or an objective from a
     notebook, a test or a report is then one program, not its few dozen operations each
-    compiled and dispatched on its own (`experiments/bench_eager.py`)."""
+    compiled and dispatched on its own (`experiments/bench_eager.py`). Arguments whose static
+    part cannot be hashed (a user's object) run as they are."""
     compiled = filter_jit(fn)
 
     @functools.wraps(fn)
     def call(*args):
         if any(isinstance(leaf, Tracer) for leaf in jax.tree.leaves(args)):
+            return fn(*args)
+        try:
+            hash(_split(args)[1:])
+        except TypeError:
             return fn(*args)
         return compiled(*args)
 

@@ -55,8 +55,10 @@ def test_precision_zero_gives_the_memory_free_path(sd1_fn, memory):
 def test_precision_zero_path_under_vmap(sd1_fn):
     s = make_strategy("de-rand-1-exp")
     keys = jax.random.split(jax.random.PRNGKey(3), 3)
-    off = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, 7)))(keys)
-    on = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, 7, memory="stma", precision=jnp.zeros(7))))(keys)
+    off = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, 7)), compiler_options=QUICK_COMPILE)(keys)
+    on = jax.jit(jax.vmap(lambda k: run(s, k, sd1_fn, 1400, 7, memory="stma", precision=jnp.zeros(7))), compiler_options=QUICK_COMPILE)(
+        keys
+    )
     t = off.history.shape[1]
     np.testing.assert_array_equal(np.asarray(on.history)[:, :t], np.asarray(off.history))
     assert np.all(np.asarray(on.dups) == 0)
@@ -290,8 +292,8 @@ def test_run_batch_equals_separate_runs(sd1_fn, memory):
     prec = None if memory is None else PREC
     kw = dict(memory=memory, precision=prec)  # with memory, runs end at different iterations (budget)
     budgets = 1050
-    batch = jax.jit(lambda k: run_batch(s, k, sd1_fn, budgets, 7, **kw))(keys)
-    one_run = jax.jit(lambda k: run(s, k, sd1_fn, budgets, 7, **kw))  # compiled once, called per run
+    batch = jax.jit(lambda k: run_batch(s, k, sd1_fn, budgets, 7, **kw), compiler_options=QUICK_COMPILE)(keys)
+    one_run = jax.jit(lambda k: run(s, k, sd1_fn, budgets, 7, **kw), compiler_options=QUICK_COMPILE)  # compiled once, called per run
     for r in range(3):
         one = one_run(keys[r])
         for field in ("best_x", "best_f", "fes", "iterations", "history", "dups"):

@@ -176,6 +176,7 @@ def test_an_eager_call_is_one_program_compiled_once_and_a_traced_one_part_of_its
     """`simulate`, `objective` and a joint objective called eagerly run one compiled program
     (`compiled_when_eager`): a second call of the same structure compiles nothing, and equals
     the function traced inside the caller's `jit` (which compiles no program of its own)."""
+    from dcjax.compiling import compiled_when_eager
     from dcjax.simulation import joint
     from dcjax.simulation import objectives as O
 
@@ -189,6 +190,8 @@ def test_an_eager_call_is_one_program_compiled_once_and_a_traced_one_part_of_its
         np.testing.assert_allclose(jax.jit(lambda *a, fn=fn: fn(*a))(*args), once, rtol=1e-13)
         outer = jax.make_jaxpr(lambda *a, fn=fn: fn(*a))(*args).jaxpr
         assert "compiled" not in [e.params.get("name") for e in outer.eqns if e.primitive.name in ("pjit", "jit")]
+    odd = compiled_when_eager(lambda a, b: a * len(b))  # an unhashable argument: run as it is
+    assert np.array_equal(odd(jnp.ones(2), bytearray(b"abc")), [3.0, 3.0])
     compiles = []
 
     def listen(name, duration, **kw):

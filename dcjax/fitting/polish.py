@@ -9,12 +9,16 @@ than taken from optimistix because each iteration evaluates the simulation once:
 polish of a two-input model (tests/test_matrix.py, PMSM) compiled in 1.3 s against
 `optimistix.LevenbergMarquardt`'s 3.1 s, which traces the simulation four to five times."""
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from ..compiling import filter_jit
+from ..devices import COMPILED_LOOP_BYTES, compiled_loop_bytes
 from ..models.space import Space
 from ..simulation.joint import JointProblem, StackedJoint, joint_problem
 from ..simulation.predictors import EKF
@@ -172,11 +176,25 @@ def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float,
     return PolishResult(jnp.where(better, x_new, x), of0, jnp.where(better, of1, of0), sol.stats["num_steps"], done)
 
 
-# XLA's own compiler options: without its fusion emitters (`dcjax.compiling.LEAN`) the polish
-# compiles in 0.7-0.8 of the time, but its last bits differ (an SD1 polish at OF ~1e-26).
-polish_jit = eqx.filter_jit(polish)
-_polish_vmapped = eqx.filter_jit(jax.vmap(polish, in_axes=(0, None, None)))
-_polish_mapped = eqx.filter_jit(lambda xs, problem, space: jax.lax.map(lambda x: polish(x, problem, space), xs))
+def _compiled(fn):
+    """`fn` compiled without XLA:CPU's fusion emitters (`LEAN`) where the time loops are built as
+    one function (`use_compiled_loops`, as the CLI, the experiments and the tests run), with XLA's
+    own options elsewhere. With compiled loops both give the same bits (SD1 with 2 and 6 runs,
+    MD1 RK4, a joint SD1+SD2 fit) and `LEAN` compiles in about half the time (an SD1 polish 0.75
+    -> 0.38 s) and runs as fast; with XLA's 1 KiB loops `LEAN` changes the last bits (an SD1
+    polish at OF ~1e-26)."""
+    lean, full = filter_jit(fn), filter_jit(fn, options={})
+
+    @functools.wraps(fn)
+    def call(*args):
+        return (lean if compiled_loop_bytes() >= COMPILED_LOOP_BYTES else full)(*args)
+
+    return call
+
+
+polish_jit = _compiled(polish)
+_polish_vmapped = _compiled(jax.vmap(polish, in_axes=(0, None, None)))
+_polish_mapped = _compiled(lambda xs, problem, space: jax.lax.map(lambda x: polish(x, problem, space), xs))
 FEW_RUNS = 4  # up to this many starts are polished one after another (`lax.map`): half the compile time of the vmapped loop
 
 

@@ -6,8 +6,9 @@ of dcjax's programs do not win back: without them (`LEAN`) a short search compil
 the time to the same bits and runs as fast (`python -m experiments.bench_compile_level`), the
 sampler's programs in 0.75 (8.1 -> 6.2 s on SD1) and run within 8 %. Not free everywhere: a batch
 of recordings (`fit_each`) and a memory-assisted search run 25-27 % slower without them (the
-short searches take that for one rule for every run's program), and the Levenberg–Marquardt
-polish's last bits change, so it keeps them."""
+short searches take that for one rule for every run's program), and the polish's last bits
+change where the time loops are not compiled (`use_compiled_loops`), so there it keeps them
+(`dcjax.fitting.polish`)."""
 
 import functools
 from collections.abc import Callable

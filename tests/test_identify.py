@@ -117,6 +117,21 @@ def test_polish_improves_and_keeps_bounds(sd1, sd1_true):
     assert BOX4.contains(np.asarray(r2.x)) and float(r2.of_after) <= float(r2.of_before)
 
 
+def test_the_polish_compiles_lean_to_the_bits_of_xlas_own_options(sd1, sd1_true):
+    """With compiled loops (this test session's, `conftest.py`) the polish is compiled without
+    the fusion emitters (`polish._compiled`) and ends on the same bits as with XLA's options."""
+    from dcjax.compiling import filter_jit
+    from dcjax.devices import COMPILED_LOOP_BYTES, compiled_loop_bytes
+    from dcjax.fitting.polish import polish
+
+    assert compiled_loop_bytes() >= COMPILED_LOOP_BYTES
+    prob = make_problem(sd1)
+    x0 = jnp.asarray([sd1_true[n] for n in NAMES]) * jnp.array([1.01, 0.99, 1.0, 1.02, 0.97, 1.1, 0.9])
+    lean, full = polish_jit(x0, prob, BOX4), filter_jit(polish, options={})(x0, prob, BOX4)
+    assert np.array_equal(np.asarray(lean.x), np.asarray(full.x)) and float(lean.of_after) == float(full.of_after)
+    assert int(lean.steps) == int(full.steps) > 1
+
+
 def test_levenberg_marquardt_reaches_scipys_least_squares_optimum():
     """dcjax's LM against scipy's (MINPACK-style trust region, an independent implementation): the
     Rosenbrock residuals (zero-residual optimum at (1, 1)) and a noisy exponential decay (a

@@ -285,23 +285,24 @@ text = jax.jit(lambda x: dcjax.objective(x, prob)).lower(x).compile().as_text()
 with warnings.catch_warnings(record=True) as late:
     warnings.simplefilter("always")
     again = dcjax.use_compiled_loops()
-print(on, "xla_cpu_small_call" in text, again, len(late), os.environ.get("XLA_FLAGS", "").count("small_while"))
+print(on, "xla_cpu_small_call" in text, again, len(late), os.environ.get("XLA_FLAGS", "").count("small_while"), dcjax.devices.compiled_loop_bytes())
 """
 
 
 @pytest.mark.parametrize(
     "flags, arg, expect",
     [
-        (None, "", ["True", "True", "True", "0", "1"]),  # on: the time loop is one call
-        (None, "512", ["True", "False", "True", "0", "1"]),  # a 17 KB loop is above 512 bytes
-        ("--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1024", "", ["True", "False", "True", "0", "1"]),
-        ("--xla_backend_extra_options=xla_llvm_dot_tiling_factor=4", "", ["False", "False", "False", "0", "0"]),  # user's: kept
+        (None, "", ["True", "True", "True", "0", "1", "16777216"]),  # on: the time loop is one call
+        (None, "512", ["True", "False", "True", "0", "1", "512"]),  # a 17 KB loop is above 512 bytes
+        ("--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1024", "", ["True", "False", "True", "0", "1", "1024"]),
+        ("--xla_backend_extra_options=xla_llvm_dot_tiling_factor=4", "", ["False", "False", "False", "0", "0", "1024"]),  # user's: kept
     ],
 )
 def test_use_compiled_loops(flags, arg, expect):
     """Off by default (test_import_changes_no_xla_flags); `use_compiled_loops()` compiles the
     objective's time loop as one function, leaves a user's `xla_backend_extra_options` alone and
-    does not add its option twice."""
+    does not add its option twice; `compiled_loop_bytes` reads the threshold in force (XLA's 1 KiB
+    where none is set)."""
     env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
     if flags:
         env["XLA_FLAGS"] = flags

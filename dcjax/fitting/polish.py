@@ -180,8 +180,8 @@ def _compiled(fn):
     """`fn` compiled without XLA:CPU's fusion emitters (`LEAN`) where the time loops are built as
     one function (`use_compiled_loops`, as the CLI, the experiments and the tests run), with XLA's
     own options elsewhere. With compiled loops both give the same bits (SD1 with 2 and 6 runs,
-    MD1 RK4, a joint SD1+SD2 fit) and `LEAN` compiles in about half the time (an SD1 polish 0.75
-    -> 0.38 s) and runs as fast; with XLA's 1 KiB loops `LEAN` changes the last bits (an SD1
+    MD1 RK4, a joint SD1+SD2 fit) and `LEAN` compiles in 0.6-0.7 of the time (SD1, 2 runs: 0.88 ->
+    0.55 s; `python -m experiments.bench_polish_compile`) and runs as fast; with XLA's 1 KiB loops `LEAN` changes the last bits (an SD1
     polish at OF ~1e-26)."""
     lean, full = filter_jit(fn), filter_jit(fn, options={})
 

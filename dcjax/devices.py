@@ -86,7 +86,8 @@ def use_compiled_loops(max_bytes: int = COMPILED_LOOP_BYTES) -> bool:
 
 def compiled_loop_bytes() -> int:
     """The largest while-loop state (bytes) XLA:CPU builds as one function in this process: what
-    `use_compiled_loops` (or the user's `XLA_FLAGS`) set, else XLA's default, 1 KiB."""
+    `use_compiled_loops` (or the user's `XLA_FLAGS`) set, else XLA's default, 1 KiB. Read from
+    `XLA_FLAGS`, which XLA reads once as JAX starts: a change after that is not in force."""
     found = re.search(rf"{LOOP_OPTION}=(\d+)", os.environ.get("XLA_FLAGS", ""))
     return int(found.group(1)) if found else 1024
 

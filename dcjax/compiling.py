@@ -37,10 +37,12 @@ def filter_jit(fn: Callable | None = None, *, options: dict | None = None) -> Ca
         return functools.partial(filter_jit, options=options)
     opts = LEAN if options is None else options
 
-    @functools.partial(jax.jit, static_argnums=(1, 2), compiler_options=opts)
-    def compiled(dynamic, treedef, leaves):
+    def program(dynamic, treedef, leaves):
         args = eqx.combine(dynamic, jax.tree.unflatten(treedef, leaves))
         return fn(*args)
+
+    program.__name__ = program.__qualname__ = getattr(fn, "__name__", "program")  # the logs and profiles name `fn`
+    compiled = jax.jit(program, static_argnums=(1, 2), compiler_options=opts)
 
     @functools.wraps(fn)
     def call(*args):

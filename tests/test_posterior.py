@@ -2,6 +2,7 @@
 quadrature, the reflecting NUTS step against a truncated Gaussian's exact moments (scipy), and
 `dcjax sample` on SD1 with 1 % noise from the independent NumPy RK4 (`tests/reference.py`)."""
 
+import logging
 import math
 import re
 
@@ -83,6 +84,53 @@ def test_reflecting_nuts_samples_a_gaussian_cut_by_walls():
         se = dist.std() / math.sqrt(20000 / 4)  # a conservative ESS of a quarter of the draws
         assert abs(pos[:, k].mean() - dist.mean()) < 5 * se, (k, pos[:, k].mean(), dist.mean())
         assert pos[:, k].std() == pytest.approx(dist.std(), rel=0.05)
+
+
+def test_one_loop_is_blackjaxs_window_adaptation_then_its_draws():
+    """`nuts_chain.chain_steps` (warm-up and draws in one loop over one kernel) against what blackjax
+    computes on its own: `blackjax.window_adaptation` (dense, the sampler's target acceptance), then
+    a scan of `blackjax.nuts(...).step` with the tuned parameters, on a correlated Gaussian. The same
+    tuned step size and matrix, the same warm-up end state and the same draws to the bit; one call
+    of all the steps equals the warm-up's call then the draws'."""
+    from blackjax.adaptation.base import get_filter_adapt_info_fn
+    from blackjax.mcmc.integrators import velocity_verlet
+
+    from dcjax.analysis.nuts_chain import chain_steps, initial_chains
+    from dcjax.analysis.posterior import TARGET_ACCEPTANCE
+
+    cov = 0.01 * jnp.array([[1.0, 0.8, 0.1], [0.8, 2.0, -0.3], [0.1, -0.3, 0.5]])
+    precision = jnp.linalg.inv(cov)
+
+    def logd(x):
+        return -0.5 * (x - 1.0) @ precision @ (x - 1.0)
+
+    x0, (k_warm, k_draw), warmup, draws = jnp.array([0.9, 1.2, 1.0]), jax.random.split(jax.random.key(3)), 150, 60
+    adapt = blackjax.window_adaptation(
+        blackjax.nuts,
+        logd,
+        is_mass_matrix_diagonal=False,
+        target_acceptance_rate=TARGET_ACCEPTANCE,
+        adaptation_info_fn=get_filter_adapt_info_fn(),
+    )
+    (state, params), _ = jax.jit(lambda k, x: adapt.run(k, x, num_steps=warmup))(k_warm, x0)  # pyright: ignore[reportCallIssue]
+    kernel = blackjax.nuts(logd, **params)
+
+    def step(s, k):
+        s, info = kernel.step(k, s)
+        return s, (s.position, info.num_integration_steps)
+
+    _, (positions, steps) = jax.jit(lambda s, k: jax.lax.scan(step, s, jax.random.split(k, draws)))(state, k_draw)
+
+    run = jax.jit(lambda c, a, b: chain_steps(logd, velocity_verlet, (k_warm, k_draw), c, a, b, warmup, draws, TARGET_ACCEPTANCE))
+    start = jax.tree.map(lambda a: a[0], initial_chains(np.asarray(x0)[None]))
+    warm, _ = run(start, 0, warmup)
+    assert float(warm.tuning.tuned_step_size) == float(params["step_size"])
+    assert np.array_equal(warm.tuning.tuned_inverse_mass_matrix, params["inverse_mass_matrix"])
+    assert np.array_equal(warm.state.position, state.position)
+    _, (mine, (_, my_steps, _, _), _) = run(warm, warmup, warmup + draws)
+    assert np.array_equal(mine, positions) and np.array_equal(my_steps, steps)
+    _, (whole, _, _) = run(start, 0, warmup + draws)
+    assert np.array_equal(whole, mine)
 
 
 def test_own_priors_are_their_densities_within_the_range_against_scipy():
@@ -177,12 +225,14 @@ def test_the_likelihood_through_the_objective_is_the_channel_sums_one(noisy_sd1,
 
 
 @pytest.mark.slow
-def test_sample_sd1_with_one_percent_noise_converges(noisy_sd1, tmp_path):
+def test_sample_sd1_with_one_percent_noise_converges(noisy_sd1, tmp_path, caplog):
     """All seven parameters (Tlb and Tlc against their bound 0) and the two initial states, which
     the default fits on noisy channels: R-hat <= 1.01, bulk ESS >= 400; the noise scales are the
-    1 % added; same seed, same draws."""
+    1 % added; same seed, same draws; the chains' warm-up and draws are one executable (compiled once)."""
     res = dcjax.fit(noisy_sd1, params="table4", search=dcjax.Search(runs=2, budget=40_000, polish=True))
-    post = res.sample(draws=500, chains=4, warmup=500, seed=0)
+    with jax.log_compiles(True), caplog.at_level(logging.WARNING):
+        post = res.sample(draws=500, chains=4, warmup=500, seed=0)
+    assert sum("Compiling jit(_chains)" in r.getMessage() for r in caplog.records) == 1
     assert post.likelihood == "Gaussian"
     for n in post.names:
         assert post.rhat[n] <= 1.01 and post.ess_bulk[n] >= 400, (n, post.rhat[n], post.ess_bulk[n])

@@ -14,8 +14,9 @@ makes the box's walls reflecting. A logit map instead would stretch a parameter 
 touches a bound (a load torque at 0) into an exponential tail that NUTS crosses with trees of a
 thousand steps. Chains start at the optimum, jittered by the Laplace approximation (the Fisher
 information of the noise model, plus 12 I for the uniform prior's variance 1/12 in z), whose
-covariance also seeds the dense mass matrix of Stan's window adaptation
-(`blackjax.window_adaptation`). Diagnostics are Vehtari et al. (2021)'s rank-normalised split R-hat,
+covariance also seeds the dense mass matrix of Stan's window adaptation (`nuts_chain`: blackjax's
+`window_adaptation` to the bit, its warm-up and the draws one loop over one NUTS kernel, compiled
+once). Diagnostics are Vehtari et al. (2021)'s rank-normalised split R-hat,
 (`blackjax.diagnostics`) and bulk and tail ESS (`sample_size`: Stan's and ArviZ's estimator). blackjax rather than numpyro: dcjax already has a log
 density as a pure JAX function of a vector, which is blackjax's whole interface (no model DSL), and
 its kernels map or vmap over chains."""
@@ -24,14 +25,12 @@ import dataclasses
 import time
 from collections.abc import Mapping
 
-import blackjax
 import blackjax.diagnostics as diag
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from blackjax.adaptation.base import get_filter_adapt_info_fn
-from jax.sharding import Mesh, PartitionSpec
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ..compiling import filter_jit
 from ..errors import ConfigError
@@ -43,6 +42,7 @@ from ..simulation.joint import JointProblem
 from ..simulation.likelihood import NoiseModel, filter_likelihood, fit_noise, likelihood_target, noise_free, noise_names, whitened_residuals
 from ..simulation.losses import Loss
 from . import sample_size
+from .nuts_chain import ChainState, chain_steps, initial_chains
 from .reflection import reflecting_verlet
 
 # The step size's target acceptance in the warm-up (Stan's adapt_delta; blackjax's default 0.8).
@@ -272,7 +272,6 @@ def log_posterior(theta, likelihood: JointProblem, noise: NoiseModel, space: Spa
     return jnp.where(jnp.isfinite(lp) & inside, lp, -jnp.inf)
 
 
-@filter_jit
 def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space, prior: PriorTerm):
     """The Laplace covariance in z: (J^T J + 12 I + P)^-1, J of the whitened residuals (the
     uniform prior's variance 1/12 bounds a direction the data leave free), P the own priors'
@@ -287,6 +286,19 @@ def _laplace(z0, target: JointProblem, noise: NoiseModel, space: Space, prior: P
     curv = -jnp.diag(jax.hessian(lambda z: prior(space.to_physical(z)))(z0))
     info = data + 12.0 * jnp.eye(z0.shape[0]) + jnp.diag(jnp.maximum(jnp.where(jnp.isfinite(curv), curv, 0.0), 0.0))
     return jnp.linalg.inv(info)
+
+
+@filter_jit
+def _start(x, target: JointProblem, noise: NoiseModel, space: Space, prior: PriorTerm, seed, chains: int):
+    """The chains' start in one program: the priors' log densities at the optimum `x` (each must be
+    finite), the Laplace whitening (`_laplace`) at it, `chains` starts drawn from it (`_inside`
+    the box) and each chain's warm-up and draws keys."""
+    densities = jnp.stack([jnp.zeros(())] + [p.log_density(x[k]) for p, k in zip(prior.priors, prior.index)])[1:]
+    z0 = jnp.clip(space.to_unit(x), 0.0, 1.0)
+    white = Whitening(z0, jnp.linalg.cholesky(_laplace(z0, target, noise, space, prior)))
+    k_init, k_warm, k_draw = jax.random.split(jax.random.key(seed), 3)
+    starts = _inside(white, jax.random.normal(k_init, (chains, z0.shape[0]), dtype=x.dtype))
+    return densities, white, starts, (jax.random.split(k_warm, chains), jax.random.split(k_draw, chains))
 
 
 def _over_chains(fn, mesh, chained: int, *args):
@@ -323,50 +335,31 @@ def chain_mesh(chains: int) -> Mesh | None:
 
 
 @filter_jit
-def _warmup(keys, starts, likelihood: JointProblem, noise: NoiseModel, space: Space, white: Whitening, prior: PriorTerm, steps: int, mesh):
-    def one(key, start, likelihood, noise, space, white, prior):
-        def logdensity(e):
-            return log_posterior(e, likelihood, noise, space, white, prior)
-
-        adapt = blackjax.window_adaptation(
-            blackjax.nuts,
-            logdensity,
-            is_mass_matrix_diagonal=False,
-            target_acceptance_rate=TARGET_ACCEPTANCE,
-            integrator=reflecting_verlet(*white.walls()),
-            adaptation_info_fn=get_filter_adapt_info_fn(),
-        )
-        (state, params), _ = adapt.run(key, start, num_steps=steps)  # pyright: ignore[reportCallIssue]
-        return state, params
-
-    return _over_chains(one, mesh, 2, keys, starts, likelihood, noise, space, white, prior)
-
-
-@filter_jit
-def _draw(
-    keys, states, params, likelihood: JointProblem, noise: NoiseModel, space: Space, white: Whitening, prior: PriorTerm, draws: int, mesh
+def _chains(
+    keys: tuple,
+    chain: ChainState,
+    likelihood: JointProblem,
+    noise: NoiseModel,
+    space: Space,
+    white: Whitening,
+    prior: PriorTerm,
+    start,
+    stop,
+    warmup: int,
+    draws: int,
+    mesh,
 ):
-    def chain(key, state, p, likelihood, noise, space, white, prior):
+    """Steps [start, stop) of every chain (`nuts_chain.chain_steps`: `warmup` steps of Stan's window
+    adaptation, then `draws` draws): one executable for the warm-up's call and the draws'."""
+
+    def one(key_warm, key_draw, chain, likelihood, noise, space, white, prior, start, stop):
         def logdensity(e):
             return log_posterior(e, likelihood, noise, space, white, prior)
 
-        kernel = blackjax.nuts(logdensity, **p, integrator=reflecting_verlet(*white.walls()))
+        walls = reflecting_verlet(*white.walls())
+        return chain_steps(logdensity, walls, (key_warm, key_draw), chain, start, stop, warmup, draws, TARGET_ACCEPTANCE)
 
-        def step(s, k):
-            s, info = kernel.step(k, s)
-            stats = (
-                info.is_divergent,
-                info.num_integration_steps,
-                info.acceptance_rate,
-                info.energy,
-                info.num_trajectory_expansions,
-                s.logdensity,
-            )
-            return s, (s.position, stats)
-
-        return jax.lax.scan(step, state, jax.random.split(key, draws))[1]
-
-    return _over_chains(chain, mesh, 3, keys, states, params, likelihood, noise, space, white, prior)
+    return _over_chains(one, mesh, 3, *keys, chain, likelihood, noise, space, white, prior, start, stop)
 
 
 def sample(
@@ -393,9 +386,6 @@ def sample(
         raise ConfigError("every parameter is fixed: nothing to sample")
     x = jnp.asarray(x, dtype=jnp.float64)
     prior = prior_term(space, priors)
-    for p, k in zip(prior.priors, prior.index):
-        if not np.isfinite(float(p.log_density(x[k]))):
-            raise ConfigError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
     filters = any(p.predictor.filters for p in target.problems)
     if filters:  # a prediction-error fit: the Kalman filter's likelihood, its noise in the vector
         likelihood, noise = filter_likelihood(target)
@@ -403,28 +393,31 @@ def sample(
         noise = fit_noise(x, target, loss)
         noise_free(target, noise)
         likelihood = likelihood_target(target, noise)
-    z0 = jnp.clip(space.to_unit(x), 0.0, 1.0)
-    cov = _laplace(z0, likelihood if filters else target, noise, space, prior)
-    k_init, k_warm, k_draw = jax.random.split(jax.random.key(int(seed)), 3)
-    white = Whitening(z0, jnp.linalg.cholesky(cov))
-    starts = _inside(white, jax.random.normal(k_init, (chains, z0.shape[0]), dtype=jnp.float64))
+    densities, white, starts, keys = _start(x, likelihood if filters else target, noise, space, prior, np.int64(seed), int(chains))
+    for d, k in zip(np.asarray(densities), prior.index):
+        if not np.isfinite(d):
+            raise ConfigError(f"prior of {space.names[k]}: zero density at the fit's value {float(x[k]):g}")
     t0 = time.perf_counter()
     mesh = chain_mesh(chains)
-    states, params = _warmup(jax.random.split(k_warm, chains), starts, likelihood, noise, space, white, prior, int(warmup), mesh)
-    jax.block_until_ready(states)
-    args = (jax.random.split(k_draw, chains), states, params, likelihood, noise, space, white, prior, int(draws), mesh)
-    draw = _draw.ahead(*args)  # pyright: ignore[reportFunctionMemberAccess]  # compiled before the sampling is timed
+    shared = (likelihood, noise, space, white, prior)
+    chain = initial_chains(starts)
+    if mesh is not None:  # placed as the warm-up's call returns it: the draws' call takes the same executable
+        chain = jax.device_put(chain, NamedSharding(mesh, PartitionSpec("chains")))
+    chain, _ = _chains(keys, chain, *shared, np.int64(0), np.int64(warmup), int(warmup), int(draws), mesh)
+    jax.block_until_ready(chain)
     t1 = time.perf_counter()
-    pos, (div, steps, acc, energy, depth, lp) = jax.block_until_ready(draw(*args))
+    _, records = _chains(keys, chain, *shared, np.int64(warmup), np.int64(warmup + draws), int(warmup), int(draws), mesh)
+    jax.block_until_ready(records)
     t2 = time.perf_counter()
-    free, rhat = map(np.asarray, _diagnostics(pos, space, white))
+    free, rhat = map(np.asarray, _diagnostics(records[0], space, white))
+    _, (div, steps, acc, energy), (depth, lp) = jax.tree.map(np.asarray, records)
     names = space.free_names
     ess_bulk = [sample_size.ess_bulk(free[..., k]) for k in range(len(names))]
     ess_tail = [sample_size.ess_tail(free[..., k]) for k in range(len(names))]
     return Posterior(
         names=names,
         draws=free,
-        optimum={n: float(x[k]) for n, k in zip(names, space.free)},
+        optimum={n: float(v) for n, v in zip(names, np.asarray(x)[list(space.free)])},
         rhat=dict(zip(names, map(float, rhat))),
         ess_bulk=dict(zip(names, map(float, ess_bulk))),
         ess_tail=dict(zip(names, map(float, ess_tail))),
@@ -443,7 +436,7 @@ def sample(
             "energy": np.asarray(energy, float),
             "tree_depth": np.asarray(depth, np.int64),
             "lp": np.asarray(lp, float),
-            "step_size": np.broadcast_to(np.asarray(params["step_size"], float)[:, None], np.shape(div)).copy(),
+            "step_size": np.broadcast_to(np.asarray(chain.tuning.tuned_step_size, float)[:, None], np.shape(div)).copy(),
         },
     )
 

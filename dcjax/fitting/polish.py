@@ -169,7 +169,7 @@ def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float,
 
     y0 = _to_free(space.to_unit(x), eps)
     sol = optx.minimise(fn, optx.BFGS(rtol=rtol, atol=atol), y0, max_steps=5 * max_steps, throw=False)
-    of0, of1 = target.objective(x), fn(sol.value, None)
+    of0, of1 = target.objective(x), sol.state.f_info.f  # the objective at the last accepted point, as the solver evaluated it
     better = jnp.isfinite(of1) & (of1 <= of0)
     x_new = space.to_physical(_to_unit(sol.value))
     done = sol.result == optx.RESULTS.successful

@@ -131,6 +131,18 @@ def test_one_loop_is_blackjaxs_window_adaptation_then_its_draws():
     assert np.array_equal(mine, positions) and np.array_equal(my_steps, steps)
     _, (whole, _, _) = run(start, 0, warmup + draws)
     assert np.array_equal(whole, mine)
+    # vmapped (the chains side by side, as on an accelerator): the first of two chains is blackjax's again
+    keys = [jnp.stack([k, jax.random.fold_in(k, 1)]) for k in (k_warm, k_draw)]
+    pair = initial_chains(np.stack([np.asarray(x0), np.asarray(x0) + 0.01]))
+    side_by_side = jax.jit(
+        jax.vmap(
+            lambda kw, kd, c, a, b: chain_steps(logd, velocity_verlet, (kw, kd), c, a, b, warmup, draws, TARGET_ACCEPTANCE),
+            (0, 0, 0, None, None),
+        )
+    )
+    warm2, _ = side_by_side(*keys, pair, 0, warmup)
+    _, (both, _, _) = side_by_side(*keys, warm2, warmup, warmup + draws)
+    assert float(warm2.tuning.tuned_step_size[0]) == float(params["step_size"]) and np.array_equal(both[0], positions)
 
 
 def test_own_priors_are_their_densities_within_the_range_against_scipy():

@@ -191,13 +191,9 @@ def corner(posterior, path: str | Path, units: dict[str, str] | None = None) -> 
     label = {n: f"{n} ({units[n]})" if units.get(n) else n for n in names}
     k = len(names)
     fig = Figure(figsize=(1.9 * k + 1, 1.9 * k + 1))
-    axes = fig.subplots(k, k, squeeze=False)
     for i in range(k):
-        for j in range(k):
-            ax = axes[i, j]
-            if j > i:
-                ax.set_axis_off()
-                continue
+        for j in range(i + 1):  # the lower triangle only: an empty axes costs as much to build and lay out
+            ax = fig.add_subplot(k, k, i * k + j + 1)
             if i == j:
                 ax.hist(d[:, i], bins=40, range=_span(d[:, i]), color="0.4")
                 ax.axvline(posterior.optimum[names[i]], color="r", lw=1)

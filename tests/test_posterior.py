@@ -55,6 +55,15 @@ def test_effective_sample_sizes_are_arviz_ones_on_autocorrelated_chains_with_tie
         assert ess_tail(x) == pytest.approx(float(az.ess(data, method="tail")["a"]), rel=1e-12), k
     x[0, 3] = np.nan
     assert np.isnan(ess_bulk(x)) and np.isnan(ess_tail(x))
+    # the fewest draws ArviZ takes (4): at 4 both agree, under it both are NaN (a sample of 1 draw is no error)
+    for shape in ((2, 4), (1, 5), (3, 3), (4, 1)):
+        x = rng.standard_normal(shape)
+        data = az.convert_to_dataset({"a": x})
+        for mine, theirs in (
+            (ess_bulk(x), float(az.ess(data, method="bulk")["a"])),
+            (ess_tail(x), float(az.ess(data, method="tail")["a"])),
+        ):
+            assert mine == pytest.approx(theirs, rel=1e-12) or (np.isnan(mine) and np.isnan(theirs)), (shape, mine, theirs)
 
 
 def test_reflecting_nuts_samples_a_gaussian_cut_by_walls():

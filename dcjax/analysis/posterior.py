@@ -444,10 +444,11 @@ def sample(
 @filter_jit
 def _diagnostics(pos, space: Space, white: Whitening):
     """The draws' free entries in physical units, (chains, draws, F), and their rank-normalised split
-    R-hat (NaN for one chain): one compiled program (blackjax's diagnostics run eagerly compile some
+    R-hat (NaN for one chain or under `sample_size.MIN_DRAWS` draws): one compiled program (blackjax's diagnostics run eagerly compile some
     200 small ones on each new shape)."""
     free = jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos)[..., jnp.asarray(space.free)]
-    rhat = diag.rhat(free) if free.shape[0] > 1 else jnp.full(free.shape[-1], jnp.nan)
+    enough = free.shape[0] > 1 and free.shape[1] >= sample_size.MIN_DRAWS  # else NaN, as ArviZ
+    rhat = diag.rhat(free) if enough else jnp.full(free.shape[-1], jnp.nan)
     return free, jnp.atleast_1d(rhat)
 
 

@@ -62,19 +62,25 @@ def effective_size(x: Float[np.ndarray, "C N"]) -> float:
     return float(c * n / max(tau, 1.0 / np.log10(c * n)))
 
 
+MIN_DRAWS = 4  # fewer draws a chain: no ESS (NaN), as ArviZ (its minimum shape, draws=4)
+
+
 def ess_bulk(x: Float[np.ndarray, "C N"]) -> float:
-    """The bulk ESS: of the rank-normalised split chains."""
-    return effective_size(_rank_normalised(_split(np.asarray(x, dtype=float))))
+    """The bulk ESS: of the rank-normalised split chains (NaN under `MIN_DRAWS` draws a chain)."""
+    x = np.asarray(x, dtype=float)
+    if x.shape[1] < MIN_DRAWS:
+        return float("nan")
+    return effective_size(_rank_normalised(_split(x)))
 
 
 def ess_tail(x: Float[np.ndarray, "C N"]) -> float:
     """The tail ESS: the smaller of the split chains' ESS of the indicators x <= q05 and x <= q95
-    (the quantiles of all draws, R's type 7)."""
+    (the quantiles of all draws, R's type 7; NaN under `MIN_DRAWS` draws a chain)."""
     x = np.asarray(x, dtype=float)
-    if not np.all(np.isfinite(x)):
+    if not np.all(np.isfinite(x)) or x.shape[1] < MIN_DRAWS:
         return float("nan")
     q = stats.mstats.mquantiles(x.ravel(), (0.05, 0.95), alphap=1, betap=1)  # type 7 as R and ArviZ compute it (a tie at q counts)
     return min(effective_size(_split((x <= qk).astype(float))) for qk in np.asarray(q))
 
 
-__all__ = ["effective_size", "ess_bulk", "ess_tail"]
+__all__ = ["MIN_DRAWS", "effective_size", "ess_bulk", "ess_tail"]

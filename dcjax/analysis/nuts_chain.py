@@ -53,14 +53,12 @@ def tuning_init(dim: int, target_acceptance: float, step_size: float = 1.0) -> T
 def tuning_update(tuning: Tuning, stage, window_end, position, acceptance, target_acceptance: float) -> Tuning:
     """One warm-up step's adaptation (`stage` 0: a fast window, the step size alone; 1: a slow one,
     the covariance too; `window_end`: a slow window's last step, its matrix in force from now)."""
-    (_, da_update, da_final), (mm_init, mm_update, mm_final) = _parts(target_acceptance)
+    (da_init, da_update, da_final), (_, mm_update, mm_final) = _parts(target_acceptance)
     dual = da_update(tuning.dual, acceptance)
     window = jax.lax.cond(stage == 1, lambda w: mm_update(w, position), lambda w: w, tuning.window)
 
     def end(dual, window):  # the window's matrix in force; the step size's averaging restarts from its average
-        window = mm_final(window)
-        dual = dual_averaging_adaptation(target_acceptance)[0](da_final(dual))
-        return dual, window
+        return da_init(da_final(dual)), mm_final(window)
 
     dual, window = jax.lax.cond(window_end, end, lambda d, w: (d, w), dual, window)
     return tuning._replace(dual=dual, window=window, step_size=jnp.exp(dual.log_step_size), inverse_mass_matrix=window.inverse_mass_matrix)

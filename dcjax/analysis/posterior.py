@@ -356,8 +356,8 @@ def _chains(
         def logdensity(e):
             return log_posterior(e, likelihood, noise, space, white, prior)
 
-        walls = reflecting_verlet(*white.walls())
-        return chain_steps(logdensity, walls, (key_warm, key_draw), chain, start, stop, warmup, draws, TARGET_ACCEPTANCE)
+        integrator = reflecting_verlet(*white.walls())
+        return chain_steps(logdensity, integrator, (key_warm, key_draw), chain, start, stop, warmup, draws, TARGET_ACCEPTANCE)
 
     return _over_chains(one, mesh, 3, *keys, chain, likelihood, noise, space, white, prior, start, stop)
 
@@ -444,8 +444,8 @@ def sample(
 @filter_jit
 def _diagnostics(pos, space: Space, white: Whitening):
     """The draws' free entries in physical units, (chains, draws, F), and their rank-normalised split
-    R-hat (NaN for one chain or under `sample_size.MIN_DRAWS` draws): one compiled program (blackjax's diagnostics run eagerly compile some
-    200 small ones on each new shape)."""
+    R-hat (NaN for one chain or under `sample_size.MIN_DRAWS` draws): one compiled program
+    (blackjax's diagnostics run eagerly compile some 200 small ones on each new shape)."""
     free = jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos)[..., jnp.asarray(space.free)]
     enough = free.shape[0] > 1 and free.shape[1] >= sample_size.MIN_DRAWS  # else NaN, as ArviZ
     rhat = diag.rhat(free) if enough else jnp.full(free.shape[-1], jnp.nan)

@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from ..compiling import filter_jit
+from ..compiling import compiled_when_eager, filter_jit
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model, get_model
@@ -262,8 +262,10 @@ class _Criterion(eqx.Module):
     hi: tuple[float, ...] = eqx.field(static=True)
     columns: tuple[int, ...] = eqx.field(static=True, default=(0,))  # the designed inputs' columns among the model's inputs
 
+    @compiled_when_eager
     def profile(self, z: jax.Array) -> jax.Array:
-        """(N, D) inputs of the levels z (segments, D)."""
+        """(N, D) inputs of the levels z (segments, D) (an eager call: one program, not its few
+        operations each compiled)."""
         n = self.base.y_meas.shape[0]
         lo, hi = jnp.asarray(self.lo), jnp.asarray(self.hi)
         u = lo + (hi - lo) * jnp.clip(z, 0.0, 1.0)

@@ -49,3 +49,12 @@ def finite_number(value, what: str, accepted: str = "a number") -> float:
     if not number == number or number in (float("inf"), float("-inf")):
         raise ConfigError(f"{what} must be finite, got {value!r}")
     return number
+
+
+def check_seed(value, what: str) -> None:
+    """A one-line `ConfigError` unless `value` is an integer that JAX's keys take (int64:
+    -2^63 <= value < 2^63); a larger one failed inside JAX ("Python int too large")."""
+    if isinstance(value, bool) or not isinstance(value, int) and not (hasattr(value, "dtype") and value.dtype.kind in "iu"):
+        raise ConfigError(f"{what} must be an integer, got {value!r}")
+    if not -(2**63) <= int(value) < 2**63:
+        raise ConfigError(f"{what} must be an integer in [-2^63, 2^63), got {value!r}")

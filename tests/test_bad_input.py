@@ -193,6 +193,18 @@ def test_a_fit_with_no_finite_candidate_exits_non_zero(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_seed_beyond_int64_is_one_line_naming_it(saved, tmp_path, capsys):
+    """JAX's keys take an int64; a larger seed failed inside JAX ("Python int too large")."""
+    big = str(2**64 + 3)
+    assert cli.main(["fit", str(saved.parent.parent / "data" / "SD1.csv"), *TINY, "--seed", big, "--out", str(tmp_path / "f")]) == 2
+    assert "Search.seed must be an integer in [-2^63, 2^63), got 18446744073709551619" in one_line(capsys.readouterr().err)
+    assert cli.main(["sample", str(saved), "--seed", big, "--out", str(tmp_path / "s")]) == 2
+    assert "seed must be an integer in [-2^63, 2^63)" in one_line(capsys.readouterr().err)
+    assert not (tmp_path / "f").exists() and not (tmp_path / "s").exists()
+    with pytest.raises(dcjax.ConfigError, match=r"Search.seed must be an integer, got True"):
+        dcjax.Search(seed=True)
+
+
 def test_result_json_is_strict_and_reads_back_inf(saved, tmp_path):
     res = dcjax.load_result(saved)
     import dataclasses

@@ -33,7 +33,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ..compiling import filter_jit
-from ..errors import ConfigError
+from ..errors import ConfigError, check_seed
 from ..extras import optional_module
 from ..io.files import write_atomic
 from ..models.priors import Prior, prior_from_spec
@@ -380,8 +380,7 @@ def sample(
     for name, v, least in (("draws", draws, 1), ("chains", chains, 1), ("warmup", warmup, 0)):
         if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < least:
             raise ConfigError(f"{name} must be an integer >= {least}, got {v!r}")
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
-        raise ConfigError(f"seed must be an integer, got {seed!r}")
+    check_seed(seed, "seed")
     if space.dim == 0:
         raise ConfigError("every parameter is fixed: nothing to sample")
     x = jnp.asarray(x, dtype=jnp.float64)

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..deprecation import warn_deprecated
-from ..errors import ConfigError
+from ..errors import ConfigError, check_seed
 from ..strategies import METHODS, Strategy, make_strategy
 from ..strategies.memory import MemoryAssistance
 from ..strategies.stopping import Converged
@@ -62,8 +62,7 @@ class Search:
             _positive_int("method's generations", self.strategy.generations)
         if self.budget < self.strategy.pop_size:
             raise ConfigError(f"Search.budget ({self.budget}) must be at least one population ({self.strategy.pop_size})")
-        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool):
-            raise ConfigError(f"Search.seed must be an integer, got {self.seed!r}")
+        check_seed(self.seed, "Search.seed")
         if self.memory is not None and not isinstance(self.memory, MemoryAssistance):
             raise ConfigError(
                 f"Search.memory must be None, dcjax.STMA(), dcjax.LTMA(order=...) or dcjax.IndexedLTMA(), got {self.memory!r}"

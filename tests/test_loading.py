@@ -51,6 +51,32 @@ def test_daq_file_loads_to_the_same_recording(tmp_path, sd1, delimiter, decimal)
     assert src["sha256"] and Path(src["path"]).name == "daq.txt" and src["load"]["units"] == UNITS
 
 
+@pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16-le", "utf-16-be"])
+@pytest.mark.parametrize("rows", [300, 2000], ids=["short", "beyond-the-sniffed-tail"])
+def test_a_file_with_a_byte_order_mark_loads_as_without(tmp_path, sd1, encoding, rows):
+    """Excel's "CSV UTF-8" starts with a UTF-8 byte-order mark, Windows tools write UTF-16 with
+    one: the header's first name is not the mark plus `time_ms`, and a file longer than the tail
+    read to detect the delimiter reads the same. A sidecar with a mark reads; one that is not
+    UTF-8 is a one-line error naming it."""
+    plain, marked = tmp_path / "plain.txt", tmp_path / "marked.txt"
+    tiled = {c: np.resize(sd1[c], rows) for c in ("u_a", "i_a", "omega")}  # SD1's 500 samples over and over
+    write_daq(plain, Recording(t=np.arange(rows) * (sd1.t[1] - sd1.t[0]), **tiled, name="SD1"))
+    text = plain.read_text().split("\n", 3)[3]  # the header first: the mark is glued to its first name
+    plain.write_text(text)
+    mark = "" if encoding == "utf-8-sig" else "\ufeff"  # Python writes UTF-8's mark itself, UTF-16's not in a fixed byte order
+    marked.write_bytes((mark + text).encode(encoding))
+    assert marked.read_bytes()[:2] in (b"\xef\xbb", b"\xff\xfe", b"\xfe\xff") and marked.stat().st_size > (65536 if rows > 300 else 0)
+    a, b = (load_recording(f, columns=COLUMNS, units=UNITS) for f in (plain, marked))
+    for c in ("t", "u_a", "i_a", "omega"):
+        np.testing.assert_array_equal(a[c], b[c])
+    marked.with_suffix(".json").write_bytes('{"name": "Motor é", "i_a_limit": 2.5}'.encode("utf-8-sig"))
+    named = load_recording(marked, columns=COLUMNS, units=UNITS)
+    assert named.name == "Motor é" and named.limit == 2.5
+    marked.with_suffix(".json").write_bytes('{"name": "Motor é"}'.encode("latin-1"))
+    with pytest.raises(dcjax.DataError, match=r"marked.json: not UTF-8 text \(byte 16\); save it as UTF-8$"):
+        load_recording(marked, columns=COLUMNS, units=UNITS)
+
+
 def test_npz_mat_and_dataframe(tmp_path, sd1):
     np.savez(tmp_path / "r.npz", time=sd1.t, u=sd1.u_a, i=sd1.i_a, n=sd1.omega / RPM)
     cols = {"t": "time", "u_a": "u", "i_a": "i", "omega": "n"}

@@ -146,7 +146,7 @@ def remove_result(path: Path) -> None:
     """An earlier result.json and the files its manifest lists ("files"), result.json first: a
     run stopped in between never leaves a result beside another run's files."""
     try:
-        listed = json.loads(path.read_text()).get("files") or {}
+        listed = json.loads(path.read_text(encoding="utf-8")).get("files") or {}
     except (OSError, ValueError, AttributeError):
         listed = {}
     path.unlink(missing_ok=True)

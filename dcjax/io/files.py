@@ -61,7 +61,7 @@ def write_atomic(path: str | Path, write: Callable[[Path], object]) -> Path:
 
 def write_text(path: str | Path, text: str) -> Path:
     """`text` written atomically (`write_atomic`)."""
-    return write_atomic(path, lambda tmp: tmp.write_text(text))
+    return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def save_figure(fig, path: str | Path, **kw) -> Path:

@@ -95,7 +95,9 @@ class Recording:
         dt = np.diff(tt)
         if np.any(dt <= 0):
             k = int(np.flatnonzero(dt <= 0)[0])
-            raise DataError("time", f"{self._where()}time must be strictly increasing: t[{k + 1}] = {tt[k + 1]!r} <= t[{k}] = {tt[k]!r}")
+            raise DataError(
+                "time", f"{self._where()}time must be strictly increasing: t[{k + 1}] = {float(tt[k + 1])!r} <= t[{k}] = {float(tt[k])!r}"
+            )
         given = limit
         if limit is not None:
             try:
@@ -230,7 +232,10 @@ def load_csv(path: str | Path, name: str | None = None) -> Recording:
     path = Path(path)
     if not path.is_file():
         raise DataError(f"no such file: {path}")
-    lines = path.read_text().splitlines()
+    try:
+        lines = path.read_text(encoding="utf-8-sig").splitlines()
+    except UnicodeDecodeError as e:
+        raise DataError(f"{path}: not UTF-8 text (byte {e.start}); load_recording reads other encodings") from None
     if not lines:
         raise DataError(f"{path}: file is empty")
     header = [h.strip() for h in lines[0].split(",")]
@@ -265,7 +270,9 @@ def read_sidecar(path: Path) -> dict:
     if not sidecar.is_file():
         return {}
     try:
-        meta = json.loads(sidecar.read_text())
+        meta = json.loads(sidecar.read_text(encoding="utf-8-sig"))  # JSON is UTF-8; a byte-order mark is dropped
+    except UnicodeDecodeError as e:
+        raise DataError(f"{sidecar}: not UTF-8 text (byte {e.start}); save it as UTF-8") from None
     except json.JSONDecodeError as e:
         raise DataError(f"{sidecar}: invalid JSON: {e}") from None
     if not isinstance(meta, dict):
@@ -306,9 +313,9 @@ def save_csv(recording: Recording, path: str | Path, metadata: dict | None = Non
     cols = [recording.t] + [recording.channels[c] for c in names]
     lines = [",".join(["t", *names])]
     lines += [",".join(repr(float(c[k])) for c in cols) for k in range(len(recording))]
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     meta = {**recording.metadata, **(metadata or {}), "name": recording.name, "i_a_limit": recording.limit}
-    path.with_suffix(".json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
+    path.with_suffix(".json").write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
 def trim_switch_on(recording: Recording, threshold: float = 0.02, rezero_time: bool = False, channel: str = "u_a") -> Recording:

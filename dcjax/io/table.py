@@ -2,7 +2,8 @@
 an optional line of units, then data rows, every one of which is read or named in an error.
 
 The delimiter is detected from the file's last lines (read first, so that a file that is not a
-table fails before it is read whole). The data are the rows of the last line's width from the
+table fails before it is read whole). The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
+(as Excel and Windows tools write them; `text_encoding`). The data are the rows of the last line's width from the
 first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
 is empty, `nan`, `NA`, `null` or `none` is NaN (a row of them only, as loggers write between
@@ -88,13 +89,32 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
     )
 
 
+# A byte-order mark and the encoding it names (Python's "utf-8-sig" and "utf-16" read the mark and drop it).
+BYTE_ORDER_MARKS = ((b"\xef\xbb\xbf", "utf-8-sig"), (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16"))
+
+
+def text_encoding(path: Path) -> str:
+    """The encoding of a text file: the one its byte-order mark names (UTF-8 or UTF-16), else UTF-8."""
+    with open(path, "rb") as f:
+        head = f.read(3)
+    return next((enc for mark, enc in BYTE_ORDER_MARKS if head.startswith(mark)), "utf-8")
+
+
 def _tail_lines(path: Path) -> list[str]:
     """The last lines of the file (at most `SNIFF_BYTES`), without blanks and comments."""
+    encoding = text_encoding(path)
     with open(path, "rb") as f:
+        mark = f.read(3)
         f.seek(0, os.SEEK_END)
         size = f.tell()
-        f.seek(max(0, size - SNIFF_BYTES))
-        text = f.read().decode("utf-8", errors="replace")
+        start = max(0, size - SNIFF_BYTES)
+        if encoding == "utf-16":  # from a code unit's first byte, in the mark's byte order, after the mark
+            start += start % 2
+            f.seek(max(start, 2))
+            text = f.read().decode("utf-16-le" if mark.startswith(b"\xff\xfe") else "utf-16-be", errors="replace")
+        else:
+            f.seek(start)
+            text = f.read().decode(encoding if start == 0 else "utf-8", errors="replace")
     lines = text.splitlines()[1:] if size > SNIFF_BYTES else text.splitlines()
     return [without_trailing_delimiter(x) for x in lines if x.strip() and _comment(x) is None]
 
@@ -161,7 +181,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
     )  # the last lines above the data: (line, text fields of its width, commented)
     values: list[list[float]] = []
     lines: list[int] = []
-    with open(path, encoding="utf-8", errors="replace", newline=None) as f:
+    with open(path, encoding=text_encoding(path), errors="replace", newline=None) as f:
         for lineno, raw in enumerate(f, start=1):
             if not raw.strip():
                 continue

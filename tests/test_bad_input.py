@@ -205,6 +205,16 @@ def test_a_seed_beyond_int64_is_one_line_naming_it(saved, tmp_path, capsys):
         dcjax.Search(seed=True)
 
 
+def test_a_range_given_to_bounds_points_to_bound(tmp_path, capsys):
+    """`--bounds Ra=0:10` (a range where a preset goes) said only "unknown bounds preset"."""
+    f = short_sd1(tmp_path)
+    assert cli.main(["fit", str(f), *TINY, "--bounds", "Ra=0:10", "--out", str(tmp_path / "o")]) == 2
+    assert "--bounds takes auto or a preset, got 'Ra=0:10': a parameter's range goes in --bound NAME=LO:HI" in one_line(
+        capsys.readouterr().err
+    )
+    assert not (tmp_path / "o").exists()
+
+
 def test_result_json_is_strict_and_reads_back_inf(saved, tmp_path):
     res = dcjax.load_result(saved)
     import dataclasses

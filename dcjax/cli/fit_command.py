@@ -247,6 +247,8 @@ class FitCommand:
             raise ConfigError("--lower and --upper must be given together")
         if args.lower is not None and args.bounds is not None:
             raise ConfigError("give either --bounds or --lower/--upper, not both")
+        if args.bounds is not None and "=" in args.bounds:
+            raise ConfigError(f"--bounds takes auto or a preset, got {args.bounds!r}: a parameter's range goes in --bound NAME=LO:HI")
         if args.local and (args.each or len(args.data) < 2):
             raise ConfigError("--local needs a joint fit of several recordings (each gets its own value), not --each or one file")
         if args.plots not in (None, "none") and not args.each:

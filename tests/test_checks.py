@@ -279,3 +279,19 @@ def test_median_is_numpys_to_the_bit():
                 a[rng.integers(n)] = np.nan
             want = np.median(a)
             assert np.float64(median(a)).tobytes() == np.float64(want).tobytes() or (np.isnan(want) and np.isnan(median(a))), (n, kind)
+
+
+def test_the_outliers_line_tells_recordings_of_one_name_apart():
+    """Files whose sidecars give one name (SD1 cut to 20 lengths): the line named the outlier
+    "SD1", where summary.csv's folder is SD1_8."""
+    from dcjax.cli.each import flagged_names
+
+    rows = [
+        {"name": "SD1", "folder": "SD1", "file": "f310.csv", "outlier": ""},
+        {"name": "SD1", "folder": "SD1_2", "file": "f320.csv", "outlier": "Tlb"},
+        {"name": "SD1", "folder": "", "file": "f330.csv", "outlier": "of"},  # failed: no folder
+    ]
+    assert flagged_names(rows) == ["SD1_2", "f330.csv"]
+    rows[0]["name"], rows[1]["name"] = "a", "b"
+    rows[2]["name"] = "c"
+    assert flagged_names(rows) == ["b", "c"]

@@ -71,7 +71,7 @@ def fit_each_command(command: FitCommand) -> int:
             row["folder"] = folders.get(id(result), "")
         csv_path, png = write_summary(rows, out, model, plot=plots != "none")
         ok = sum(r["status"] == "ok" for r in rows)
-        flagged = [r["name"] for r in rows if r.get("outlier")]
+        flagged = flagged_names(rows)
         split.add("write+plots")
         print(
             f"{ok}/{len(rows)} fitted; outliers: {', '.join(flagged) or 'none'}; wrote {csv_path}"
@@ -79,3 +79,11 @@ def fit_each_command(command: FitCommand) -> int:
         )
         print(split.line(n))
     return 0 if ok == len(rows) else 1 if ok else 2
+
+
+def flagged_names(rows: list[dict]) -> list[str]:
+    """The summary rows marked as outliers, by name, or, where recordings share a name (their
+    sidecars', say), by their output folder (the file where none), as summary.csv tells them apart."""
+    names = [r["name"] for r in rows]
+    unique = len(set(names)) == len(names)
+    return [r["name"] if unique else r.get("folder") or r["file"] for r in rows if r.get("outlier")]

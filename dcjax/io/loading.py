@@ -12,7 +12,7 @@ import numpy as np
 from ..errors import ConfigError, DataError
 from ..models import Model, get_model
 from .files import file_sha256
-from .recording import Recording, channels_to_read, read_sidecar, trim_switch_on
+from .recording import Recording, channels_to_read, data_file, read_sidecar, trim_switch_on
 from .table import Table, read_table
 from .units import select_channels, unconverted_units
 
@@ -299,8 +299,7 @@ def _has_column(table: dict, source) -> bool:
 
 def _table_of(path: Path, read: Reading) -> Table:
     """The file's table by its kind: delimited text, `.npz` or MATLAB `.mat`."""
-    if not path.is_file():
-        raise DataError(f"no such file: {path}")
+    path = data_file(path)
     suffix = path.suffix.lower()
     if suffix == ".npz":
         return Table(read_npz(path), {}, np.array([]))

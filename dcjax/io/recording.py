@@ -226,12 +226,20 @@ class Recording:
         return self.replace(t=self.t[index], channels={k: v[index] for k, v in self.channels.items()})
 
 
+def data_file(path: str | Path) -> Path:
+    """`path`, a file that exists, or a one-line `DataError` (a folder is named as one: its files are the data)."""
+    path = Path(path)
+    if path.is_dir():
+        raise DataError(f"{path} is a folder: give its data files (e.g. {path / '*.csv'})")
+    if not path.is_file():
+        raise DataError(f"no such file: {path}")
+    return path
+
+
 def load_csv(path: str | Path, name: str | None = None) -> Recording:
     """Read a `t,<channels>` CSV in SI units (dcjax's own layout; `t,u_a,i_a,omega` for the
     paper's drive) and its JSON sidecar, if present. Other layouts: `dcjax.load_recording`."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(f"no such file: {path}")
+    path = data_file(path)
     try:
         lines = path.read_text(encoding="utf-8-sig").splitlines()
     except UnicodeDecodeError as e:

@@ -100,6 +100,14 @@ def test_preprocessing(tmp_path, sd1):
     assert rec.metadata["source"]["load"] == {"window": [0.01, 0.03], "every": 2}
 
 
+def test_a_folder_given_as_a_file_is_named_a_folder(tmp_path):
+    """It said "no such file" of a folder that exists."""
+    with pytest.raises(dcjax.DataError, match=r"is a folder: give its data files \(e.g. .*\*\.csv\)$"):
+        load_recording(tmp_path)
+    with pytest.raises(dcjax.DataError, match=r"^no such file: "):
+        load_recording(tmp_path / "none.csv")
+
+
 @pytest.mark.parametrize(
     "kw,match",
     [
@@ -111,14 +119,6 @@ def test_preprocessing(tmp_path, sd1):
         (dict(columns=COLUMNS, window="a:b"), "window must be T0:T1"),
     ],
 )
-def test_a_folder_given_as_a_file_is_named_a_folder(tmp_path):
-    """It said "no such file" of a folder that exists."""
-    with pytest.raises(dcjax.DataError, match=r"is a folder: give its data files \(e.g. .*\*\.csv\)$"):
-        load_recording(tmp_path)
-    with pytest.raises(dcjax.DataError, match=r"^no such file: "):
-        load_recording(tmp_path / "none.csv")
-
-
 def test_loading_errors_are_clear(tmp_path, sd1, kw, match):
     f = tmp_path / "daq.csv"
     write_daq(f, sd1)

@@ -39,6 +39,8 @@ def _rec(**kw):
         (dict(limit=-1.0), "limit must be a positive number"),
         (dict(limit=0.0), "limit must be a positive number"),
         (dict(u_a=np.ones((5, 2))), "one-dimensional"),
+        (dict(i_a=np.linspace(0, 1, 5) + 0j), "column 'i_a' is complex; a channel is real"),  # was read as its real part
+        (dict(t=[0, 0.1, 0.2, 0.3, 0.4j]), "column 't' is complex"),
     ],
 )
 def test_bad_recordings(kw, match):

@@ -70,6 +70,8 @@ class Recording:
             raise DataError(f"{self._where()}a recording needs at least one channel besides t")
         arrays = {}
         for col, v in {"t": t, **chans}.items():
+            if np.iscomplexobj(v):  # float64 would drop the imaginary part with a warning only
+                raise DataError(f"{self._where()}column {col!r} is complex; a channel is real")
             try:
                 a = np.array(v, dtype=np.float64)
             except (TypeError, ValueError) as e:

@@ -205,6 +205,22 @@ def test_a_seed_beyond_int64_is_one_line_naming_it(saved, tmp_path, capsys):
         dcjax.Search(seed=True)
 
 
+@pytest.mark.parametrize(
+    "flag,value,match",
+    [
+        ("--fix", "Ra=inf", "argument --fix: value of Ra must be a finite number, got 'inf'"),  # was "bounds must be finite numbers"
+        ("--scale", "omega=nan", "argument --scale: value of omega must be a finite number, got 'nan'"),
+        ("--bound", "Ra=0:inf", "argument --bound: Ra needs LOWER:UPPER (finite numbers), got '0:inf'"),
+        ("--precision", "1,1,1,1,1,1,-inf", "argument --precision: must be comma-separated finite numbers"),
+    ],
+)
+def test_a_flags_number_must_be_finite(tmp_path, capsys, flag, value, match):
+    f = short_sd1(tmp_path)
+    assert cli.main(["fit", str(f), *TINY, flag, value, "--out", str(tmp_path / "o")]) == 2
+    assert match in one_line(capsys.readouterr().err)
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_range_given_to_bounds_points_to_bound(tmp_path, capsys):
     """`--bounds Ra=0:10` (a range where a preset goes) said only "unknown bounds preset"."""
     f = short_sd1(tmp_path)

@@ -250,7 +250,7 @@ def test_cli_fix_bound_model_and_import_path(tmp_path, capsys):
     [
         (["--fix", "Rx=1"], "unknown fixed parameter 'Rx'"),
         (["--fix", "Ra"], "NAME=VALUE"),
-        (["--fix", "Ra=abc"], "must be a number"),
+        (["--fix", "Ra=abc"], "must be a finite number"),
         (["--bound", "Ra=1"], "LOWER:UPPER"),
         (["--bound", "Ra=5:1"], "lower bound above upper"),
         (["--model", "nope"], "unknown model"),

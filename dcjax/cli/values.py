@@ -3,6 +3,7 @@
 malformed value is the parser's one-line error, which names the flag (`Parser.error`)."""
 
 import argparse
+import math
 
 from ..errors import ConfigError
 from ..models.priors import prior_from_spec
@@ -17,12 +18,20 @@ class Parser(argparse.ArgumentParser):
         raise ConfigError(message)
 
 
+def finite(text: str) -> float:
+    """A finite number of `text`, or ValueError (no flag of these takes inf or nan)."""
+    v = float(text)
+    if not math.isfinite(v):
+        raise ValueError(text)
+    return v
+
+
 def numbers(text: str) -> tuple[float, ...]:
     """`"1,2.5,3e-4"` -> (1.0, 2.5, 0.0003)."""
     try:
-        return tuple(float(v) for v in text.split(","))
+        return tuple(finite(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be comma-separated numbers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be comma-separated finite numbers, got {text!r}") from None
 
 
 def mapping(text: str) -> dict[str, str]:
@@ -41,9 +50,9 @@ def named_numbers(text: str) -> dict[str, float]:
     out = {}
     for k, v in mapping(text).items():
         try:
-            out[k] = float(v)
+            out[k] = finite(v)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"value of {k} must be a number, got {v!r}") from None
+            raise argparse.ArgumentTypeError(f"value of {k} must be a finite number, got {v!r}") from None
     return out
 
 
@@ -61,11 +70,11 @@ def named_ranges(text: str) -> dict[str, tuple[float, float]]:
     for k, v in mapping(text).items():
         lo, sep, hi = v.partition(":")
         try:
-            out[k] = (float(lo), float(hi))
+            out[k] = (finite(lo), finite(hi))
         except ValueError:
             sep = ""
         if not sep:
-            raise argparse.ArgumentTypeError(f"{k} needs LOWER:UPPER, got {v!r}")
+            raise argparse.ArgumentTypeError(f"{k} needs LOWER:UPPER (finite numbers), got {v!r}")
     return out
 
 

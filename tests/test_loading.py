@@ -100,6 +100,28 @@ def test_preprocessing(tmp_path, sd1):
     assert rec.metadata["source"]["load"] == {"window": [0.01, 0.03], "every": 2}
 
 
+def test_npz_and_mat_files_read_as_their_columns_or_fail_naming_the_file(tmp_path, sd1):
+    """A matrix in a .npz is one column per column, as in a .mat (it was flattened into one long
+    column: "different lengths"); a file that is not a .npz, an object array (never unpickled)
+    and a .mat of structs only are one-line errors naming the file (they were NumPy's words, or
+    "the columns are " of nothing)."""
+    from scipy.io import savemat
+
+    np.savez(tmp_path / "m.npz", t=sd1.t, u=np.column_stack([sd1.u_a, sd1.i_a]), omega=sd1.omega)
+    rec = load_recording(tmp_path / "m.npz", columns={"u_a": "u[0]", "i_a": "u[1]"})
+    np.testing.assert_array_equal(rec.i_a, sd1.i_a)
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    np.savez(tmp_path / "obj.npz", t=np.array([None, 1, 2], dtype=object))
+    savemat(tmp_path / "s.mat", {"data": {"t": sd1.t, "u_a": sd1.u_a}})
+    for name, match in [
+        ("junk.npz", r"junk.npz: not a .npz archive \(a zip of named .npy arrays"),
+        ("obj.npz", r"obj.npz: not a readable .npz file of numeric arrays \(Object arrays cannot be loaded"),
+        ("s.mat", r"s.mat: no numeric array of more than one value at its top level; it holds data \(a struct\)$"),
+    ]:
+        with pytest.raises(dcjax.DataError, match=match):
+            load_recording(tmp_path / name)
+
+
 def test_a_folder_given_as_a_file_is_named_a_folder(tmp_path):
     """It said "no such file" of a folder that exists."""
     with pytest.raises(dcjax.DataError, match=r"is a folder: give its data files \(e.g. .*\*\.csv\)$"):

@@ -4,6 +4,7 @@ preprocessing (time window, decimation, switch-on trimming) recorded with the da
 
 import dataclasses
 import warnings
+import zipfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -19,9 +20,41 @@ from .units import select_channels, unconverted_units
 TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
 
 
+def _columns_of(name: str, a: np.ndarray, out: dict[str, np.ndarray]) -> None:
+    """A numeric array of more than one value as columns: a vector (or a 1 x N / N x 1 matrix)
+    is one, a matrix one per column (`name[j]`)."""
+    if a.dtype.kind in "fiu" and a.size > 1:
+        if a.ndim == 2 and min(a.shape) > 1:
+            for j in range(a.shape[1]):
+                out[f"{name}[{j}]"] = a[:, j].astype(float)
+        else:
+            out[name] = a.ravel().astype(float)
+
+
+def _some_columns(path: Path, out: dict[str, np.ndarray], found: dict[str, str]) -> dict[str, np.ndarray]:
+    """`out`, or a one-line error naming what the file holds where no array is a column."""
+    if not out:
+        held = ", ".join(f"{k} ({v})" for k, v in found.items()) or "nothing"
+        raise DataError(f"{path}: no numeric array of more than one value at its top level; it holds {held}")
+    return out
+
+
 def read_npz(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path, allow_pickle=False) as z:
-        return {k: np.asarray(z[k]).ravel() for k in z.files if np.asarray(z[k]).size > 1}
+    """The numeric arrays of a `.npz` file as columns (`_columns_of`); never unpickles (an object
+    array is a one-line error)."""
+    out: dict[str, np.ndarray] = {}
+    found: dict[str, str] = {}
+    if not zipfile.is_zipfile(path):
+        raise DataError(f"{path}: not a .npz archive (a zip of named .npy arrays, as numpy.savez writes)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            for k in z.files:
+                a = np.asarray(z[k])
+                found[k] = f"{a.dtype} {a.shape}"
+                _columns_of(k, a, out)
+    except Exception as e:  # a pickled object array, a damaged member: NumPy raises several types
+        raise DataError(f"{path}: not a readable .npz file of numeric arrays ({e})") from None
+    return _some_columns(path, out, found)
 
 
 def read_mat(path: Path) -> dict[str, np.ndarray]:
@@ -33,18 +66,14 @@ def read_mat(path: Path) -> dict[str, np.ndarray]:
         m = loadmat(path)
     except Exception as e:  # scipy raises several types for a bad file
         raise DataError(f"{path}: not a readable MATLAB file ({e})") from None
-    out = {}
+    out: dict[str, np.ndarray] = {}
+    found: dict[str, str] = {}
     for k, v in m.items():
-        if k.startswith("__"):
-            continue
-        a = np.asarray(v)
-        if a.dtype.kind in "fiu" and a.size > 1:
-            if a.ndim == 2 and min(a.shape) > 1:  # a matrix: one column each
-                for j in range(a.shape[1]):
-                    out[f"{k}[{j}]"] = a[:, j].astype(float)
-            else:
-                out[k] = a.ravel().astype(float)
-    return out
+        if not k.startswith("__"):
+            a = np.asarray(v)
+            found[k] = "a struct" if a.dtype.names else f"{a.dtype} {a.shape}"
+            _columns_of(k, a, out)
+    return _some_columns(path, out, found)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -224,7 +253,8 @@ def load_recording(
 
     - Text (`.csv .tsv .txt .dat`): the delimiter (`,` `;` tab, whitespace) is detected unless
       given; `#` lines and a preamble before the header are skipped; extra columns are ignored;
-      `decimal=","` reads `1,5` as 1.5. Also `.npz` (arrays by name) and MATLAB `.mat`.
+      `decimal=","` reads `1,5` as 1.5. Also `.npz` (arrays by name; never unpickled) and MATLAB
+      `.mat`: a matrix is a column each (`name[0]`, `name[1]`, ...).
     - `columns`: channel -> column name (or 0-based index), e.g. `{"t": "time_ms", "i_a": "I"}`;
       a channel not mapped is looked up by its own name.
     - `units`: channel -> unit (`t`: s, ms, us; voltage: V, mV, kV; current: A, mA; speed: rad/s,

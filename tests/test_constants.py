@@ -66,7 +66,7 @@ def test_the_cli_const_option_and_errors_that_name_the_inputs(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "'k'" in err and "--const k=V" in err
     assert cli.main(["fit", str(path), "--model", spec, "--const", "k=abc", "--out", str(out)]) == 2
-    assert "--const: value of k must be a number" in capsys.readouterr().err
+    assert "--const: value of k must be a finite number" in capsys.readouterr().err
     with pytest.raises(ValueError, match="constant k must be a finite number"):
         dcjax.Recording(t=np.arange(5.0), u=np.ones(5), y=np.ones(5), constants={"k": float("nan")})
     with pytest.raises(ValueError, match="given both as a column and as a constant"):

@@ -107,9 +107,11 @@ def test_npz_and_mat_files_read_as_their_columns_or_fail_naming_the_file(tmp_pat
     "the columns are " of nothing)."""
     from scipy.io import savemat
 
-    np.savez(tmp_path / "m.npz", t=sd1.t, u=np.column_stack([sd1.u_a, sd1.i_a]), omega=sd1.omega)
+    np.savez(tmp_path / "m.npz", t=sd1.t, u=np.column_stack([sd1.u_a, sd1.i_a]), omega=sd1.omega, on=sd1.u_a > 0)
     rec = load_recording(tmp_path / "m.npz", columns={"u_a": "u[0]", "i_a": "u[1]"})
     np.testing.assert_array_equal(rec.i_a, sd1.i_a)
+    flag = load_recording(tmp_path / "m.npz", columns={"u_a": "on", "i_a": "u[1]"})  # a logged flag reads as 0/1
+    np.testing.assert_array_equal(flag.u_a, (sd1.u_a > 0).astype(float))
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
     np.savez(tmp_path / "obj.npz", t=np.array([None, 1, 2], dtype=object))
     savemat(tmp_path / "s.mat", {"data": {"t": sd1.t, "u_a": sd1.u_a}})

@@ -21,9 +21,9 @@ TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
 
 
 def _columns_of(name: str, a: np.ndarray, out: dict[str, np.ndarray]) -> None:
-    """A numeric array of more than one value as columns: a vector (or a 1 x N / N x 1 matrix)
+    """A numeric (or boolean) array of more than one value as columns: a vector (or a 1 x N / N x 1 matrix)
     is one, a matrix one per column (`name[j]`)."""
-    if a.dtype.kind in "fiu" and a.size > 1:
+    if a.dtype.kind in "biuf" and a.size > 1:  # a logged flag (bool) is 0/1
         if a.ndim == 2 and min(a.shape) > 1:
             for j in range(a.shape[1]):
                 out[f"{name}[{j}]"] = a[:, j].astype(float)

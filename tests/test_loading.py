@@ -4,6 +4,7 @@ simulate / validate / report commands on a saved result."""
 import json
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -130,6 +131,46 @@ def test_a_folder_given_as_a_file_is_named_a_folder(tmp_path):
         load_recording(tmp_path)
     with pytest.raises(dcjax.DataError, match=r"^no such file: "):
         load_recording(tmp_path / "none.csv")
+
+
+def test_a_header_naming_the_channels_but_for_case_or_an_si_unit_reads_as_the_plain_one(tmp_path, sd1):
+    """`T,U_A,I_A,OMEGA` or `t [s],u_a (V),i_a_A,omega [rad/s]` (it said "no column 't'"): the
+    same bits as the numbers written, no warning. A unit that is not the channel's SI unit, or two
+    columns that match, are one line saying how to map it; a word that is not the channel's name
+    (`Time`) is not guessed."""
+    n = 300
+    rows = np.column_stack([sd1.t[:n], sd1.u_a[:n], sd1.i_a[:n], sd1.omega[:n]])
+
+    def written(header: str) -> Path:
+        f = tmp_path / f"{abs(hash(header))}.csv"
+        cols = np.column_stack([rows, rows[:, 3:]]) if header.count(",") == 4 else rows
+        f.write_text(header + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in cols) + "\n")
+        return f
+
+    for header in ("T,U_A,I_A,OMEGA", "t [s],u_a (V),i_a_A,omega [rad/s]", "Time,u_a,i_a,omega"):
+        f = written(header)
+        if header.startswith("Time"):
+            with pytest.raises(dcjax.DataError, match=r"no column 't' for t; the columns are 'Time'"):
+                load_recording(f)
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            rec = load_recording(f)
+        assert np.array_equal(np.column_stack([rec.t, rec.u_a, rec.i_a, rec.omega]), rows), header
+    for header, match in [
+        (
+            "t [ms],u_a,i_a,omega",
+            r"column 't \[ms\]' names t in ms, not s: map it with columns=\{'t': 't \[ms\]'\} and units=\{'t': 'ms'\}$",
+        ),
+        ("t,u_a,i_a,omega_rpm", r"column 'omega_rpm' names omega in rpm, not rad/s: map it with columns=\{'omega': 'omega_rpm'\}"),
+        ("t [V],u_a,i_a,omega", r"column 't \[V\]' names t in V, not s: map t's column with columns=\{'t': NAME\}$"),
+        ("t,u_a,i_a,Omega,OMEGA", r"'Omega' and 'OMEGA' both name it but for case or unit: map one with columns=\{'omega': NAME\}$"),
+    ]:
+        with pytest.raises(dcjax.DataError, match=match):
+            load_recording(written(header))
+    assert main(["fit", str(written("T,U_A,I_A,OMEGA")), "--bounds", "table4", "--runs", "1", "--budget", "70", "--plots", "none",
+                 "--out", str(tmp_path / "out")]) == 0  # fmt: skip
+    assert load_result(tmp_path / "out" / "result.json").recording.t[-1] == rows[-1, 0]  # the saved result reloads its file
 
 
 @pytest.mark.parametrize(

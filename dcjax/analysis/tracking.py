@@ -13,6 +13,7 @@ one that lets a parameter wander by a tenth of its value over the record."""
 
 import dataclasses
 import math
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -154,7 +155,34 @@ def track(result, recording: Recording, vary, drift: dict[str, float] | None = N
     zs, ps, zf = _smooth(z0, p0, qz, jnp.asarray(r), x_model, idx, target, x)
     k = len(model.states)
     sd = np.sqrt(np.clip(np.diagonal(np.asarray(ps), axis1=1, axis2=2)[:, k:], 0.0, None))
-    return Tracked(vary, np.asarray(rec.t), np.asarray(zs)[:, k:], sd, np.asarray(zf)[:, k:], q_theta)
+    tracked = Tracked(vary, np.asarray(rec.t), np.asarray(zs)[:, k:], sd, np.asarray(zf)[:, k:], q_theta)
+    _warn_below_zero(tracked, result, rec.name)
+    return tracked
+
+
+def _non_negative(result, name: str) -> bool:
+    """Whether the fit held `name` at or above 0: a positive parameter of its model, or a search range from 0 up."""
+    if name in result.model.positive:
+        return True
+    lower = dict(zip(result.names, np.asarray(result.bounds.lower)))
+    lo = lower.get(name, lower.get(f"{name}[0]"))
+    return lo is not None and lo >= 0
+
+
+def _warn_below_zero(tracked: Tracked, result, recording: str) -> None:
+    """A one-line warning for each tracked parameter the fit held at or above 0 whose smoothed
+    value goes below 0: no drift of the motor, the filter taking up what the model does not
+    explain on this recording."""
+    for k, n in enumerate(tracked.names):
+        v = tracked.values[:, k]
+        if _non_negative(result, n) and np.min(v) < 0:
+            at = int(np.argmin(v))
+            warnings.warn(
+                f"track: {n} goes below 0 on {recording} (to {v[at]:.4g} at t = {tracked.t[at]:.4g} s), which the fit held at or "
+                "above 0: the filter takes up what the model does not explain here, not a drift; check the fit on this "
+                "recording (dcjax validate)",
+                stacklevel=3,
+            )
 
 
 def plot_tracked(tracked: Tracked, path) -> None:

@@ -15,7 +15,7 @@ from ..models import Model, get_model
 from .files import file_sha256
 from .recording import Recording, channels_to_read, data_file, read_sidecar, trim_switch_on
 from .table import Table, read_table
-from .units import select_channels, unconverted_units
+from .units import named_columns, select_channels, unconverted_units
 
 TEXT_SUFFIXES = (".csv", ".tsv", ".txt", ".dat", ".asc")
 
@@ -256,7 +256,8 @@ def load_recording(
       `decimal=","` reads `1,5` as 1.5. Also `.npz` (arrays by name; never unpickled) and MATLAB
       `.mat`: a matrix is a column each (`name[0]`, `name[1]`, ...).
     - `columns`: channel -> column name (or 0-based index), e.g. `{"t": "time_ms", "i_a": "I"}`;
-      a channel not mapped is looked up by its own name.
+      a channel not mapped is looked up by its own name, or else by the one column named so but
+      for case and a unit at its end that is the channel's SI unit (`OMEGA`, `t [s]`, `omega (rad/s)`).
     - `units`: channel -> unit (`t`: s, ms, us; voltage: V, mV, kV; current: A, mA; speed: rad/s,
       rpm, 1/min, rev/s, deg/s), converted to SI.
     - `scale`: channel -> factor applied after the unit conversion (a speed logged in m/s at the
@@ -286,6 +287,10 @@ def load_recording(
     columns, units = dict(read.columns or {}), dict(read.units or {})
     if not measured:  # an output's mapped column the file lacks: not read
         columns = {c: v for c, v in columns.items() if c not in unmeasured or _has_column(table.columns, v)}
+    timed = read.dt is not None or read.rate is not None
+    wanted = [c for c in ("t", *needed, *unmeasured) if c not in columns and not (c == "t" and timed)]
+    named = named_columns(list(table.columns), table.units, wanted, m.quantities, where=f"{path.name}: ")
+    columns |= named
     chans = select_channels(
         table.columns,
         needed,
@@ -300,8 +305,8 @@ def load_recording(
         optional=unmeasured,
     )
     by = "units line" if table.units_line is not None else "header"
-    timed = read.dt is not None or read.rate is not None
-    unconverted_units(list(table.columns), table.units, by, chans, columns, units, m.quantities, path.name, timed=timed)
+    stated = {h: u for h, u in table.units.items() if h not in named.values()}  # a column named by the channel: in its SI unit
+    unconverted_units(list(table.columns), stated, by, chans, columns, units, m.quantities, path.name, timed=timed)
     chans = _finite_rows(chans, path.name) if read.drop_nan else _no_nan(chans, table, path.name)
     if consts:
         meta["constants"] = consts

@@ -1,5 +1,6 @@
 """Unit conversion to SI for recorded channels, and mapping of table columns to channels."""
 
+import re
 import warnings
 
 import numpy as np
@@ -93,6 +94,69 @@ def scale_factors(scale: dict | None, known: tuple[str, ...], where: str = "") -
             out[c] = float("nan")
         if not (np.isfinite(out[c]) and out[c] != 0):
             raise ConfigError(f"{where}scale of {c} must be a finite non-zero number, got {f!r}")
+    return out
+
+
+def _without_unit(header: str, unit: str | None) -> str:
+    """`header` less the unit it states at its end (`omega [rad/s]`, `I(mA)`, `speed_rpm`,
+    `time ms`): the rest; `header` itself where it states none."""
+    h = header.strip()
+    if unit:
+        u = re.escape(unit.strip())
+        for pattern in (rf"^(.+?)\s*[\[(]\s*{u}\s*[\])]$", rf"^(.+?)[_\s]+{u}$"):
+            m = re.match(pattern, h)
+            if m:
+                return m.group(1).strip()
+    return h
+
+
+def _is_si(unit: str | None, channel: str, quantity: str | None) -> bool:
+    """Whether a column stated in `unit` (None: no unit) reads as `channel`'s SI unit as it is."""
+    if not unit or unit == SI_UNITS.get(quantity or ""):
+        return True
+    try:
+        return known_unit(unit) and unit_factor(channel, unit, quantity) == 1.0
+    except ConfigError:
+        return False
+
+
+def named_columns(headers: list[str], stated: dict[str, str], wanted, quantities: dict, where: str = "") -> dict[str, str]:
+    """Channel -> column for each `wanted` channel that no column is named exactly, where one
+    column is named after it but for case and a unit at its end that is the channel's SI unit
+    (`OMEGA`, `Omega`, `t [s]`, `omega (rad/s)`, `i_a_A`; `stated`: header -> unit, as
+    `Table.units`). A name that matches with another unit (`t [ms]`), or two that match, are a
+    one-line `ColumnError` saying how to map it; a channel no column names is left out."""
+    out = {}
+    for c in wanted:
+        if c in headers:
+            continue
+        quantity = "time" if c == "t" else quantities.get(c)
+        near = []
+        for h in headers:
+            unit = stated.get(h)
+            base = _without_unit(h, unit)
+            if base.lower() == c.lower():
+                near.append((h, unit))
+            elif h.strip().lower() == c.lower():  # the "unit" is the name's last word (`U_A`): the whole name is the channel's
+                near.append((h, None))
+        if len(near) > 1:
+            raise ColumnError(
+                f"{where}no column {c!r} for {c}; {' and '.join(repr(h) for h, _ in near)} {'both' if len(near) == 2 else 'all'} name it but for case or unit: "
+                f"map one with columns={{{c!r}: NAME}}"
+            )
+        if near:
+            h, unit = near[0]
+            if not _is_si(unit, c, quantity):
+                ours = quantity in UNITS and any(unit.lower() == u.lower() for u in UNITS[quantity])  # pyright: ignore[reportOptionalMemberAccess]
+                fix = (
+                    f"map it with columns={{{c!r}: {h!r}}} and units={{{c!r}: {unit!r}}}"
+                    if ours
+                    else f"map {c}'s column with columns={{{c!r}: NAME}}"
+                )
+                raise ColumnError(
+                    f"{where}no column {c!r} for {c}; column {h!r} names {c} in {unit}, not {SI_UNITS.get(quantity or '', 'SI')}: {fix}"
+                )
+            out[c] = h
     return out
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import equinox as eqx
 import numpy as np
 import pytest
+import reference as ref
 
 import dcjax
 from dcjax import cli, datasets
@@ -251,11 +252,40 @@ def test_fit_findings_flag_a_rate_slower_than_la_over_ra_and_a_channel_not_follo
     truth = datasets.true_params("SD1")  # La/Ra = 1.9 ms, dt = 0.1 ms: resolved
     good = dataclasses.replace(r, best_values=truth)
     assert [f.check for f in fit_findings(good)] == []
-    fast_tau = dataclasses.replace(r, best_values={**truth, "La": 1e-6})  # La/Ra = 24 ns < dt
+    fast_tau = dataclasses.replace(r, best_values={**truth, "La": 1e-6})  # La/Ra = 24 ns < dt (and dt / ND)
     slow = [f for f in fit_findings(fast_tau) if f.check == "slow-rate"]
-    assert slow and "La cannot be resolved at this rate" in slow[0].message
+    assert slow and "the integration step 0.0001 s (the sample interval over ND=1) is longer than the fitted La/Ra" in slow[0].message
+    sub = dataclasses.replace(r, best_values={**truth, "La": 2.1e-3}, integrator=dcjax.RK4(substeps=64))  # dt / 64 < La/Ra = 49 us < dt
+    slow = [f for f in fit_findings(sub) if f.check == "slow-rate"]
+    assert slow and "only the samples right after each change of the input show it" in slow[0].message
     bad = fit_findings(good, fits={"i_a": 95.0, "omega": -3.0})
     assert [f.label for f in bad] == ["no-follow:omega"] and bad[0].severity == "warning"
+
+
+@pytest.mark.slow  # two fits with a polish
+def test_an_integration_step_longer_than_la_over_ra_biases_the_fit_and_says_so():
+    """A small motor sampled at 1 kHz (La/Ra = 0.57 ms; the NumPy reference at 64 sub-steps,
+    noise-free): fitted from 3 % off the truth at ND=1 (a 1 ms step) La ends > 5 % off and the
+    check says the fit is biased and how to refit (it said "La cannot be resolved at this rate");
+    at ND=4 every parameter is within 1 % and it does not."""
+    from dcjax.analysis.checks import fit_findings
+
+    truth = dict(Ra=2.1, La=1.2e-3, cm=0.021, J=3.5e-6, Tla=2e-4, Tlb=4e-7, Tlc=0.0)
+    t = np.arange(600) * 1e-3
+    u = np.repeat(np.random.default_rng(1).choice([0.0, 6.0, 12.0], 16), 40)[: t.size]
+    y = ref.simulate(lambda p, v, x: ref.dc_field(p, v, x), truth, t, u[:, None], [0.0, 0.0], substeps=64)
+    rec = dcjax.Recording(t=t, u_a=u, i_a=y[:, 0], omega=y[:, 1], name="hobby")
+    params = dcjax.Parameters(
+        [dcjax.Parameter(n, value=v * (1.03 if k % 2 else 0.97), min=0.7 * v, max=1.4 * v) for k, (n, v) in enumerate(truth.items()) if v]
+        + [dcjax.Parameter("Tlc", value=0.0, vary=False)]
+    )
+    off = {}
+    for nd in (1, 4):
+        r = dcjax.fit(rec, params=params, search=dcjax.Search(runs=1, budget=70, polish=True), integrator=dcjax.RK4(substeps=nd))
+        off[nd] = max(abs(r.best_values[n] / v - 1) for n, v in truth.items() if v)
+        slow = [f.message for f in fit_findings(r) if "integration step" in f.message]
+        assert bool(slow) == (nd == 1) and all("which biases the fit; refit with integrator=dcjax.AutoSubsteps()" in m for m in slow), slow
+    assert off[1] > 0.05 and off[4] < 0.01, off
 
 
 def test_fit_each_checks_each_recording_unless_told_not_to(sd1):

@@ -23,7 +23,8 @@ line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists
 | `pulse`       | warning  | an input reaches half its peak in fewer than two samples (a pulse the        |
 |               |          | sampling barely resolves; not a unit slip)                                   |
 | `slow-rate`   | warning  | after the fit: the median sample interval exceeds a time constant of the     |
-|               |          | fitted model (`Model.time_constants`; DC: La/Ra)                             |
+|               |          | fitted model (`Model.time_constants`; DC: La/Ra); where the integration step |
+|               |          | (Euler, RK4: the interval over ND) does too, the fit is biased: --nd auto    |
 | `no-follow`   | warning  | after the fit: fit % <= 0 on a channel (the model does not follow it)        |
 """
 
@@ -36,6 +37,7 @@ import numpy as np
 from ..errors import DataError
 from ..io.recording import Recording
 from ..models import Model
+from ..simulation.integrators import RK4, Euler
 from .report import channel_fit
 
 ERROR, WARNING = "error", "warning"
@@ -301,16 +303,23 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
     values = (
         result.values(0) if hasattr(result, "values") else result.best_values
     )  # the model's parameters (a local one: the first recording's)
+    integrator = getattr(result, "integrator", None)
+    substeps = int(integrator.substeps) if isinstance(integrator, (Euler, RK4)) else None  # a fixed step: dt / ND
     for name, tau in result.model.time_constants(values).items():
-        if np.isfinite(tau) and dt > tau:
-            out.append(
-                Finding(
-                    "slow-rate",
-                    WARNING,
-                    f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: "
-                    f"{name.split('/')[0]} cannot be resolved at this rate",
-                )
+        if not (np.isfinite(tau) and dt > tau):
+            continue
+        if substeps is not None and dt / substeps > tau:
+            message = (
+                f"the integration step {dt / substeps:.3g} s (the sample interval over ND={substeps}) is longer than the fitted "
+                f"{name} = {tau:.3g} s: the simulation is far from converged there, which biases the fit; refit with "
+                "integrator=dcjax.AutoSubsteps() (ND chosen against a converged reference)"
             )
+        else:
+            message = (
+                f"the sample interval {dt:.3g} s is longer than the fitted {name} = {tau:.3g} s: only the samples right after "
+                f"each change of the input show it; its standard error says how well they do"
+            )
+        out.append(Finding("slow-rate", WARNING, message))
     if fits is None:
         fits = channel_fit(result, rec)
     for c, v in fits.items():

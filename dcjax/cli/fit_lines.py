@@ -125,7 +125,7 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
         print(line)
     named = lambda r, g: g if len(recs) == 1 else dataclasses.replace(g, message=f"{r.name}: {g.message}")  # a joint fit: whose
     for f in [*result.checks, *(named(r, g) for r in recs for g in fit_findings(result, r))]:
-        print(f"check {f}")
+        print(as_flags(f"check {f}"))
     print(
         f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'}"
         + (f" and {out / 'fit.png'}" if plotted else "")

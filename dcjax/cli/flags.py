@@ -39,6 +39,7 @@ CALLS = [
     (r"params\[['\"]?([\w\[\]]+?)['\"]?\]\.set\(min=([^,()]+), max=([^,()]+)\)", r"--bound \1=\2:\3"),
     (r"\brecordings=\[?\.\.\.\]?", "--data FILE"),
     (r"\bresult\.uncertainty\(\)", "--uncertainty"),
+    (r"\bintegrator=dcjax\.AutoSubsteps\(\)", "--nd auto"),
 ]
 
 

@@ -109,7 +109,7 @@ class Plan:
         fixed = vec.fixed
         lo, hi = vec.lower.copy(), vec.upper.copy()
         for k, n in enumerate(vec.names):
-            if n in fixed and not lo[k] <= fixed[n] <= hi[k]:
+            if n in fixed and not (np.isfinite(lo[k]) and np.isfinite(hi[k]) and lo[k] <= fixed[n] <= hi[k]):  # a fixed one needs no range
                 lo[k] = hi[k] = fixed[n]
         log = tuple(n for n, p in vec.items() if p.scale == "log")
         space = vector_space(vec.names, Bounds(lo, hi, vec.names), fixed, f"model {model.name}", log)

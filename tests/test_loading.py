@@ -135,9 +135,9 @@ def test_a_folder_given_as_a_file_is_named_a_folder(tmp_path):
 
 def test_a_header_naming_the_channels_but_for_case_or_an_si_unit_reads_as_the_plain_one(tmp_path, sd1):
     """`T,U_A,I_A,OMEGA` or `t [s],u_a (V),i_a_A,omega [rad/s]` (it said "no column 't'"): the
-    same bits as the numbers written, no warning. A unit that is not the channel's SI unit, or two
-    columns that match, are one line saying how to map it; a word that is not the channel's name
-    (`Time`) is not guessed."""
+    same bits as the numbers written, no warning; the time also as `time` (`Time (s)`). A unit
+    that is not the channel's SI unit (`time_ms`), or two columns that match, are one line saying
+    how to map it; a word that is not the channel's name (`speed`) is not guessed."""
     n = 300
     rows = np.column_stack([sd1.t[:n], sd1.u_a[:n], sd1.i_a[:n], sd1.omega[:n]])
 
@@ -147,10 +147,10 @@ def test_a_header_naming_the_channels_but_for_case_or_an_si_unit_reads_as_the_pl
         f.write_text(header + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in cols) + "\n")
         return f
 
-    for header in ("T,U_A,I_A,OMEGA", "t [s],u_a (V),i_a_A,omega [rad/s]", "Time,u_a,i_a,omega"):
+    for header in ("T,U_A,I_A,OMEGA", "t [s],u_a (V),i_a_A,omega [rad/s]", "Time (s),u_a,i_a,omega", "t,u_a,i_a,speed"):
         f = written(header)
-        if header.startswith("Time"):
-            with pytest.raises(dcjax.DataError, match=r"no column 't' for t; the columns are 'Time'"):
+        if header.endswith("speed"):
+            with pytest.raises(dcjax.DataError, match=r"no column 'omega' for omega; the columns are 't', 'u_a', 'i_a', 'speed'"):
                 load_recording(f)
             continue
         with warnings.catch_warnings():
@@ -165,9 +165,15 @@ def test_a_header_naming_the_channels_but_for_case_or_an_si_unit_reads_as_the_pl
         ("t,u_a,i_a,omega_rpm", r"column 'omega_rpm' names omega in rpm, not rad/s: map it with columns=\{'omega': 'omega_rpm'\}"),
         ("t [V],u_a,i_a,omega", r"column 't \[V\]' names t in V, not s: map t's column with columns=\{'t': NAME\}$"),
         ("t,u_a,i_a,Omega,OMEGA", r"'Omega' and 'OMEGA' both name it but for case or unit: map one with columns=\{'omega': NAME\}$"),
+        (
+            "time_ms,u_a,i_a,omega",
+            r"^[0-9]+.csv: no column 't' for t; column 'time_ms' names t in ms, not s: map it with columns=\{'t': 'time_ms'\}",
+        ),
     ]:
         with pytest.raises(dcjax.DataError, match=match):
             load_recording(written(header))
+    rec = load_recording(written("time_ms,u_a,i_a,omega"), units={"t": "ms"})  # the unit given: the column is taken and converted
+    np.testing.assert_allclose(rec.t, rows[:, 0] * 1e-3, rtol=1e-15)
     assert main(["fit", str(written("T,U_A,I_A,OMEGA")), "--bounds", "table4", "--runs", "1", "--budget", "70", "--plots", "none",
                  "--out", str(tmp_path / "out")]) == 0  # fmt: skip
     assert load_result(tmp_path / "out" / "result.json").recording.t[-1] == rows[-1, 0]  # the saved result reloads its file

@@ -289,7 +289,7 @@ def load_recording(
         columns = {c: v for c, v in columns.items() if c not in unmeasured or _has_column(table.columns, v)}
     timed = read.dt is not None or read.rate is not None
     wanted = [c for c in ("t", *needed, *unmeasured) if c not in columns and not (c == "t" and timed)]
-    named = named_columns(list(table.columns), table.units, wanted, m.quantities, where=f"{path.name}: ")
+    named, why = named_columns(list(table.columns), table.units, wanted, m.quantities, units)
     columns |= named
     chans = select_channels(
         table.columns,
@@ -303,6 +303,7 @@ def load_recording(
         rate=read.rate,
         inputs=tuple(m.inputs),
         optional=unmeasured,
+        why=why,
     )
     by = "units line" if table.units_line is not None else "header"
     stated = {h: u for h, u in table.units.items() if h not in named.values()}  # a column named by the channel: in its SI unit

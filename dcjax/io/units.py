@@ -120,44 +120,44 @@ def _is_si(unit: str | None, channel: str, quantity: str | None) -> bool:
         return False
 
 
-def named_columns(headers: list[str], stated: dict[str, str], wanted, quantities: dict, where: str = "") -> dict[str, str]:
-    """Channel -> column for each `wanted` channel that no column is named exactly, where one
-    column is named after it but for case and a unit at its end that is the channel's SI unit
-    (`OMEGA`, `Omega`, `t [s]`, `omega (rad/s)`, `i_a_A`; `stated`: header -> unit, as
-    `Table.units`). A name that matches with another unit (`t [ms]`), or two that match, are a
-    one-line `ColumnError` saying how to map it; a channel no column names is left out."""
-    out = {}
+def named_columns(
+    headers: list[str], stated: dict[str, str], wanted, quantities: dict, units: dict | None = None
+) -> tuple[dict[str, str], dict[str, str]]:
+    """(channel -> column, channel -> why not) for each `wanted` channel that no column is named
+    exactly: the one column named after it (the time also `time`) but for case and a unit at its
+    end that is the channel's SI unit, or the one `units` gives it (`OMEGA`, `Omega`, `t [s]`,
+    `Time (s)`, `omega (rad/s)`, `i_a_A`; `stated`: header -> unit, as `Table.units`). A name
+    that matches in another unit (`t [ms]`), or two that match, are not taken: the second dict
+    says how to map it (`select_channels` puts it in its error)."""
+    out, why = {}, {}
     for c in wanted:
         if c in headers:
             continue
         quantity = "time" if c == "t" else quantities.get(c)
+        names = {c.lower(), "time"} if c == "t" else {c.lower()}  # the time column: `t` or `time`, whatever the model
         near = []
         for h in headers:
             unit = stated.get(h)
-            base = _without_unit(h, unit)
-            if base.lower() == c.lower():
+            if _without_unit(h, unit).lower() in names:
                 near.append((h, unit))
-            elif h.strip().lower() == c.lower():  # the "unit" is the name's last word (`U_A`): the whole name is the channel's
+            elif h.strip().lower() in names:  # the "unit" is the name's last word (`U_A`): the whole name is the channel's
                 near.append((h, None))
         if len(near) > 1:
-            raise ColumnError(
-                f"{where}no column {c!r} for {c}; {' and '.join(repr(h) for h, _ in near)} {'both' if len(near) == 2 else 'all'} name it but for case or unit: "
-                f"map one with columns={{{c!r}: NAME}}"
-            )
-        if near:
+            both = "both" if len(near) == 2 else "all"
+            why[c] = f"{' and '.join(repr(h) for h, _ in near)} {both} name it but for case or unit: map one with columns={{{c!r}: NAME}}"
+        elif near:
             h, unit = near[0]
-            if not _is_si(unit, c, quantity):
-                ours = quantity in UNITS and any(unit.lower() == u.lower() for u in UNITS[quantity])  # pyright: ignore[reportOptionalMemberAccess]
-                fix = (
-                    f"map it with columns={{{c!r}: {h!r}}} and units={{{c!r}: {unit!r}}}"
-                    if ours
-                    else f"map {c}'s column with columns={{{c!r}: NAME}}"
-                )
-                raise ColumnError(
-                    f"{where}no column {c!r} for {c}; column {h!r} names {c} in {unit}, not {SI_UNITS.get(quantity or '', 'SI')}: {fix}"
-                )
-            out[c] = h
-    return out
+            if c in (units or {}) or _is_si(unit, c, quantity):
+                out[c] = h
+                continue
+            ours = quantity in UNITS and any(unit.lower() == u.lower() for u in UNITS[quantity])  # pyright: ignore[reportOptionalMemberAccess]
+            fix = (
+                f"map it with columns={{{c!r}: {h!r}}} and units={{{c!r}: {unit!r}}}"
+                if ours
+                else f"map {c}'s column with columns={{{c!r}: NAME}}"
+            )
+            why[c] = f"column {h!r} names {c} in {unit}, not {SI_UNITS.get(quantity or '', 'SI')}: {fix}"
+    return out, why
 
 
 def select_channels(
@@ -172,12 +172,15 @@ def select_channels(
     rate: float | None = None,
     inputs: tuple[str, ...] = (),
     optional: tuple[str, ...] = (),
+    why: dict[str, str] | None = None,
 ) -> dict[str, np.ndarray]:
     """Channels `needed` (and `t`) from `table` (column name -> values; columns may be named by
     header or by 0-based index), converted to SI with `units` (channel -> unit name), then
     multiplied by `scale` (channel -> factor: a gear ratio, a wheel radius, a sensor gain). With
     `dt` (s) or `rate` (Hz) the time is t = k dt and the table needs no time column. Channels
-    `optional` (a state that is not compared) are read the same way where the table has them."""
+    `optional` (a state that is not compared) are read the same way where the table has them.
+    `why`: channel -> why a column that nearly names it was not taken (`named_columns`), for the
+    error where it has none."""
     columns = dict(columns or {})
     units = dict(units or {})
     headers = list(table)
@@ -211,6 +214,8 @@ def select_channels(
             hint = " or give the sample time with dt= or rate=" if c == "t" else ""
             if c in inputs:  # an input may be constant in a recording
                 hint = f"; or, as the model's inputs ({', '.join(inputs)}) may be, a constant: constants={{{c!r}: V}} or the sidecar's 'constants'"
+            if c in (why or {}) and c not in columns:
+                raise ColumnError(f"{where}no column {src!r} for {c}; {why[c]}")  # pyright: ignore[reportOptionalSubscript]
             raise ColumnError(
                 f"{where}no column {src!r} for {c}; the columns are {', '.join(map(repr, headers))} (map them with columns={{{c!r}: NAME}}{hint})"
             )

@@ -37,7 +37,7 @@ import numpy as np
 from ..errors import DataError
 from ..io.recording import Recording
 from ..models import Model
-from ..simulation.integrators import coarse_for
+from ..simulation.integrators import RK4, Euler
 from .report import channel_fit
 
 ERROR, WARNING = "error", "warning"
@@ -304,13 +304,11 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
         result.values(0) if hasattr(result, "values") else result.best_values
     )  # the model's parameters (a local one: the first recording's)
     integrator = getattr(result, "integrator", None)
-    constants = result.model.time_constants(values)
-    coarse = coarse_for(integrator, dt, constants) if integrator is not None else {}
-    for name, tau in constants.items():
+    substeps = int(integrator.substeps) if isinstance(integrator, (Euler, RK4)) else None  # a fixed step: dt / ND
+    for name, tau in result.model.time_constants(values).items():
         if not (np.isfinite(tau) and dt > tau):
             continue
-        if name in coarse:
-            substeps = int(integrator.substeps)  # pyright: ignore[reportOptionalMemberAccess]
+        if substeps is not None and dt / substeps > tau:
             message = (
                 f"the integration step {dt / substeps:.3g} s (the sample interval over ND={substeps}) is longer than the fitted "
                 f"{name} = {tau:.3g} s: the simulation is far from converged there, which biases the fit; refit with "

@@ -321,15 +321,12 @@ class FitCommand:
 
 
 def _integrator(model: Model, name: str | None, nd: int | str | None) -> Integrator | AutoSubsteps | None:
-    """--integrator with --nd; None (the default: rk4 at 1 sub-step, more where that proves too
-    coarse, `dcjax.fitting.setup.Plan`) where neither is given, and for a discrete-time model."""
+    """--integrator with --nd (default rk4 at 1 sub-step); none for a discrete-time model."""
     if isinstance(model, DiscreteModel):
         if name is not None or nd not in (None, 1):
             raise ConfigError(
                 f"model {model.name} is a discrete-time model (update(c, u, y, dt) per sample): --integrator and --nd do not apply"
             )
-        return None
-    if name is None and nd is None:
         return None
     step = INTEGRATORS[name or "rk4"]
     if nd == "auto":

@@ -70,8 +70,6 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
         print(
             f"  nd auto: ND={auto['chosen']} (reference error {auto['reference_error']:.2e} <= {auto['tol']:g}: {auto['converged']}); at the ND=1 fit {tried}"
         )
-        if "why" in auto:
-            print(f"  (chosen without --nd: at the ND=1 fit {auto['why']}; --nd N keeps N)")
     for note in result.observation.notes(model, recs):
         print(as_flags(note))
     o = result.observation

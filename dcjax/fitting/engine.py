@@ -8,11 +8,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..simulation.diffrax_reference import reference_simulate_jit, simulation_error
-from ..simulation.integrators import AutoSubsteps, coarse_for
+from ..simulation.integrators import AutoSubsteps
 from .outcome import make_result
 from .result import FitResult
 from .runs import run_setups
-from .search import RunStatus
 from .setup import Plan, Setup
 
 
@@ -23,49 +22,15 @@ def fit_setups(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult
     if isinstance(plan.integrator, AutoSubsteps):
         return fit_auto_substeps(plan, setups, progress)
     ran = run_setups(setups, plan.search, progress)
-    results = [make_result(s, plan.search, *r) for s, r in zip(setups, ran)]
-    if not plan.default_integrator:
-        return results
-    coarse = {k: why for k, r in enumerate(results) if (why := too_coarse(r))}
-    if coarse:  # the default step proved longer than a fitted time constant: choose the sub-steps from these fits
-        auto = dataclasses.replace(plan, integrator=AutoSubsteps(type(plan.integrator)()))
-        try:
-            refined = fit_auto_substeps(
-                auto, [setups[k] for k in coarse], progress, first=[ran[k] for k in coarse], why=list(coarse.values())
-            )
-        except Exception:  # no converged reference (a stiff fit): the fits at ND = 1 stand, their slow-rate check says why
-            return results
-        for k, r in zip(coarse, refined):
-            results[k] = r
-    return results
+    return [make_result(s, plan.search, *r) for s, r in zip(setups, ran)]
 
 
-def too_coarse(result: FitResult) -> str:
-    """Why `result`'s fixed integration step is too coarse (`coarse_for`: longer than a time
-    constant of the fitted model on one of its recordings), or "": judged on a best run that
-    ended at an optimum (its stopping rule or its polish converged), not on one a budget cut short."""
-    best = int(np.argmin(np.where(np.isfinite(result.run_of), result.run_of, np.inf)))
-    polished = (result.polish or {}).get("converged")
-    if not (result.run_status[best] is RunStatus.CONVERGED or (polished is not None and polished[best])):
-        return ""
-    for k, rec in enumerate(result.recordings or ()):
-        dt = float(np.median(np.diff(np.asarray(rec.t))))
-        values = result.values(k)
-        for name, tau in coarse_for(result.integrator, dt, result.model.time_constants(values)).items():
-            substeps = int(result.integrator.substeps)  # pyright: ignore[reportAttributeAccessIssue]
-            return f"its step {dt / substeps:.3g} s (ND={substeps}) was longer than the fitted {name} = {tau:.3g} s"
-    return ""
-
-
-def fit_auto_substeps(
-    plan: Plan, setups: list[Setup], progress=None, first: list | None = None, why: list[str] | None = None
-) -> list[FitResult]:
+def fit_auto_substeps(plan: Plan, setups: list[Setup], progress=None) -> list[FitResult]:
     """Paper Section 5: fit at ND = 1; at each fit's best parameters compare the simulation at ND
     = 1, 2, 4, ... with an adaptive diffrax reference (`dcjax.simulation.diffrax_reference`) and
     take the first ND whose error (max over channels of max |y - y_ref| / max |y_measured|) is
     at most `tol`; refit there, and repeat from that fit until the ND stays (at most 3 rounds).
-    The setups of one ND are fitted in one call each round. `settings["nd_auto"]` records the choice.
-    `first`: the setups' runs at ND = 1 already made (`run_setups`), `why` each was chosen for."""
+    The setups of one ND are fitted in one call each round. `settings["nd_auto"]` records the choice."""
 
     auto = plan.integrator
     assert isinstance(auto, AutoSubsteps)
@@ -94,9 +59,7 @@ def fit_auto_substeps(
     rounds: list[list] = [[] for _ in setups]
     pending = list(range(len(setups)))
     for fitted in range(4):  # the fit at ND = 1, then up to 3 refits: a refit can move the parameters to where another ND is needed
-        for k, res in zip(
-            pending, first if fitted == 0 and first is not None else run_setups([current[k] for k in pending], search, progress)
-        ):
+        for k, res in zip(pending, run_setups([current[k] for k in pending], search, progress)):
             runs[k] = res
         refit = []
         for k in pending if fitted < 3 else []:  # at most 3 rounds of choosing
@@ -133,7 +96,5 @@ def fit_auto_substeps(
             "rounds": rounds[k],
             "reference": "diffrax Dopri8, PID rtol 1e-10 atol 1e-12, jump_ts at the samples",
         }
-        if why is not None:
-            info["why"] = why[k]  # chosen by default: the default step proved too coarse
         out.append(dataclasses.replace(result, nd_auto=info))  # a new result with the choice recorded
     return out

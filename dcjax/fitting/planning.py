@@ -24,9 +24,7 @@ def plan(
 ) -> Plan:
     """The `Plan` of `fit`'s and `fit_each`'s options, every one checked against the others
     (one-line errors); the search resolved by `search_of` (None: `default`, else `Search.own()`);
-    a stopping rule not asked for is the default's (`Plan.default_stop`: none for the paper's data);
-    an integrator not asked for is RK4 at 1 sub-step, its sub-steps chosen where that proves too
-    coarse (`Plan.default_integrator`)."""
+    a stopping rule not asked for is the default's (`Plan.default_stop`: none for the paper's data)."""
     if observation is None:
         observation = Observation()
     if not isinstance(observation, Observation):
@@ -42,16 +40,11 @@ def plan(
     if isinstance(m, DiscreteModel):
         if isinstance(integrator, AutoSubsteps):
             raise ConfigError(f"model {m.name} is a discrete-time model: AutoSubsteps (sub-steps) does not apply")
-        return Plan(m, integrator_for(m, integrator), search, observation, default_stop)  # a map: no sub-steps to choose
+        return Plan(m, integrator_for(m, integrator), search, observation, default_stop)
     if integrator is not None and not isinstance(integrator, (Integrator, AutoSubsteps)):
         raise ConfigError(
             f"integrator must be dcjax.Euler(...), dcjax.RK4(...), a dcjax.Integrator of your own or dcjax.AutoSubsteps(...), got {integrator!r}"
         )
     return Plan(
-        m,
-        integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator,
-        search,
-        observation,
-        default_stop,
-        default_integrator=integrator is None,
+        m, integrator_for(m, integrator) if not isinstance(integrator, AutoSubsteps) else integrator, search, observation, default_stop
     )

@@ -97,10 +97,8 @@ def fit_sets(
 
 def for_data(plan: Plan, sets: Sequence[Sequence[Recording]]) -> Plan:
     """The plan for these sets of recordings: where every recording is the paper's (`papers_data`:
-    its sidecar names one of the paper's presets), the paper's settings: its fixed budget where
-    the stopping rule was not asked for (`Plan.default_stop`), its sub-steps as given (no choice of
-    `Plan.default_integrator`); else `plan`."""
-    if not sets or not all(papers_data(recs) for recs in sets):
+    its sidecar names one of the paper's presets) and the stopping rule was not asked for
+    (`Plan.default_stop`), the paper's fixed budget (no stopping rule); else `plan`."""
+    if not plan.default_stop or not sets or not all(papers_data(recs) for recs in sets):
         return plan
-    search = dataclasses.replace(plan.search, stop=None) if plan.default_stop else plan.search
-    return dataclasses.replace(plan, search=search, default_stop=False, default_integrator=False)
+    return dataclasses.replace(plan, search=dataclasses.replace(plan.search, stop=None), default_stop=False)

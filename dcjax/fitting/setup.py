@@ -83,17 +83,13 @@ class Plan:
     """A fit's model, integrator (or `AutoSubsteps`), `Search` and `Observation`, resolved and
     checked together once (`plan`); `setup` prepares one fit of recordings with it.
     `default_stop`: the search's stopping rule is the default's, not asked for, so a fit of the
-    paper's data runs without it (`dcjax.fitting.sets.for_data`). `default_integrator`: the
-    integrator is the default's (RK4 at 1 sub-step), not asked for, so a fit whose step proves
-    longer than a fitted time constant chooses its sub-steps (`dcjax.fitting.engine.fit_setups`;
-    not for the paper's data)."""
+    paper's data runs without it (`dcjax.fitting.sets.for_data`)."""
 
     model: Model
     integrator: Integrator | AutoSubsteps
     search: Search
     observation: Observation
     default_stop: bool = False
-    default_integrator: bool = False
 
     def setup(self, recordings: Sequence[Recording], params, starts=None, findings=()) -> Setup:
         """The `Setup` of a fit of `recordings`: `params` resolved (`resolve_parameters`: None, a

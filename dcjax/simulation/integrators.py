@@ -143,16 +143,6 @@ DEFAULT_RK4 = RK4()
 SAMPLE_MAP = SampleMap()
 
 
-def coarse_for(integrator: "Integrator | AutoSubsteps", dt: float, time_constants: Mapping[str, float]) -> dict[str, float]:
-    """The time constants (name -> s) shorter than `integrator`'s fixed step, the sample interval
-    `dt` over its sub-steps (Euler, RK4; none for another integrator): where the simulation is far
-    from converged (RK4's per-step decay e^-h/tau is 2 % off at h = tau, 34 % at 1.6 tau)."""
-    if not isinstance(integrator, (Euler, RK4)):
-        return {}
-    h = dt / int(integrator.substeps)
-    return {n: float(tau) for n, tau in time_constants.items() if np.isfinite(tau) and 0 < tau < h}  # 0: an algebraic relation
-
-
 def integrator_for(model, integrator: "Integrator | None") -> Integrator:
     """The integrator of a simulation of `model`: the given one (default `RK4()`), or for a
     `DiscreteModel` its `SampleMap` (any other is a one-line error)."""

@@ -212,6 +212,7 @@ def test_cli_module_entry_bad_file(tmp_path):
     assert p.returncode != 0 and "all zero" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow  # 6 s: the same search compiled at two levels
 def test_a_short_search_compiles_quick_to_the_same_bits(sd1, monkeypatch):
     """A run shorter than about a compilation is compiled at LLVM level 2 (`QUICK_COMPILE`, about
     half the compile time): the same runs as at XLA's default level 3; a long run keeps the

@@ -95,6 +95,7 @@ def test_reflecting_nuts_samples_a_gaussian_cut_by_walls():
         assert pos[:, k].std() == pytest.approx(dist.std(), rel=0.05)
 
 
+@pytest.mark.slow  # 8 s: blackjax's programs and ours compiled
 def test_one_loop_is_blackjaxs_window_adaptation_then_its_draws():
     """`nuts_chain.chain_steps` (warm-up and draws in one loop over one kernel) against what blackjax
     computes on its own: `blackjax.window_adaptation` (dense, the sampler's target acceptance), then

@@ -8,12 +8,10 @@ import dataclasses
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from ..compiling import filter_jit
 from ..simulation.joint import JointProblem
 
-_SOLVER = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
 MAX_STEPS = 200
 
 
@@ -31,7 +29,10 @@ def _residuals(z, args):
 
 @filter_jit
 def _estimate(z0, target: JointProblem, x, idx):
-    sol = optx.least_squares(_residuals, _SOLVER, z0, args=(target, x, idx), max_steps=MAX_STEPS, throw=False)
+    import optimistix as optx  # lazy: with lineax a tenth of a second of every dcjax import
+
+    solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
+    sol = optx.least_squares(_residuals, solver, z0, args=(target, x, idx), max_steps=MAX_STEPS, throw=False)
     r = _residuals(sol.value, (target, x, idx))
     return sol.value, jnp.sum(r * r), sol.result == optx.RESULTS.successful
 

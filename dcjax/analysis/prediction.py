@@ -13,7 +13,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from ..compiling import filter_jit
 from ..simulation.joint import JointProblem
@@ -64,6 +63,8 @@ def _noise_of(z, template: EKF, states, r_lo, r_hi) -> EKF:
 
 @filter_jit
 def _fit_noise(z0, x, problem, template: EKF, adj, states: jax.Array, r_lo, r_hi):
+    import optimistix as optx  # lazy: with lineax a tenth of a second of every dcjax import
+
     def nll(z, _):
         return prediction_error(x, problem, _noise_of(z, template, states, r_lo, r_hi), adj)
 

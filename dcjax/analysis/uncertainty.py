@@ -16,7 +16,6 @@ import statistics
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from ..compiling import filter_jit
 from ..errors import ConfigError
@@ -367,6 +366,8 @@ def profile(
 
     def fn(y, v):
         return target.residuals(full(y, v))
+
+    import optimistix as optx  # lazy: with lineax a tenth of a second of every dcjax import
 
     @jax.jit
     def solve(v):

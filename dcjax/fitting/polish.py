@@ -14,7 +14,6 @@ import functools
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import optimistix as optx
 from jaxtyping import Array, Float
 
 from ..compiling import filter_jit
@@ -163,6 +162,8 @@ def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float,
     """A prediction-error fit's polish: BFGS (`optimistix.BFGS`) on the objective itself, the
     innovations' negative log-likelihood with its log det S (least squares on the whitened
     innovations would inflate the fitted noise to shrink them), bounds kept as in `polish`."""
+
+    import optimistix as optx  # lazy: with lineax a tenth of a second of every dcjax import
 
     def fn(y, _):
         return target.objective(space.to_physical(_to_unit(y)))

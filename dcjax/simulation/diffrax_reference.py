@@ -6,7 +6,6 @@ the sample instants: they are passed to the step-size controller as `jump_ts`. T
 is the continuous counterpart of the simulator's clamp: at |y_limited| = limit the derivative
 that would push further out is zero."""
 
-import diffrax
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
@@ -24,6 +23,8 @@ def reference_simulate(
     parameters). `adjustments`: a fitted initial state and input delays (u(t - d), its knots
     t_k + d passed as jump times too); an input in `problem.held` is its sample at or before t
     (a zero-order hold), eq. 29's linear interpolation otherwise."""
+    import diffrax  # lazy: importing it is a third of dcjax's own import time (`dcjax.simulation.integrators`)
+
     model = problem.model
     c, y0 = prepare(params, problem)
     if adjustments is not None and adjustments.y0 is not None:

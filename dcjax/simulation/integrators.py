@@ -23,7 +23,6 @@ from collections.abc import Callable, Mapping
 from types import MappingProxyType
 from typing import Any, ClassVar
 
-import diffrax
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -99,6 +98,7 @@ class Diffrax(Integrator):
             raise ConfigError(f"Diffrax rtol and atol must be positive, got rtol={self.rtol!r}, atol={self.atol!r}")
 
     def step(self, field, y, u0, u1, h):
+        import diffrax  # lazy: importing it is a third of dcjax's own import time, and most fits never step with it
 
         shape = jnp.broadcast_shapes(*(jnp.shape(a) for a in y))
         y0 = jnp.stack([jnp.broadcast_to(a, shape) for a in y])

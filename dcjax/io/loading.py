@@ -256,8 +256,9 @@ def load_recording(
       `decimal=","` reads `1,5` as 1.5. Also `.npz` (arrays by name; never unpickled) and MATLAB
       `.mat`: a matrix is a column each (`name[0]`, `name[1]`, ...).
     - `columns`: channel -> column name (or 0-based index), e.g. `{"t": "time_ms", "i_a": "I"}`;
-      a channel not mapped is looked up by its own name, or else by the one column named so but
-      for case and a unit at its end that is the channel's SI unit (`OMEGA`, `t [s]`, `omega (rad/s)`).
+      a channel not mapped is looked up by its own name, or else by the one column named so (the
+      time also `time`) but for case and a unit at its end that is the channel's SI unit or the
+      one `units` gives (`OMEGA`, `Time (s)`, `omega (rad/s)`; `time_ms` with `units={"t": "ms"}`).
     - `units`: channel -> unit (`t`: s, ms, us; voltage: V, mV, kV; current: A, mA; speed: rad/s,
       rpm, 1/min, rev/s, deg/s), converted to SI.
     - `scale`: channel -> factor applied after the unit conversion (a speed logged in m/s at the

@@ -111,9 +111,12 @@ def _without_unit(header: str, unit: str | None) -> str:
 
 
 def _is_si(unit: str | None, channel: str, quantity: str | None) -> bool:
-    """Whether a column stated in `unit` (None: no unit) reads as `channel`'s SI unit as it is."""
+    """Whether a column stated in `unit` (None: no unit) reads as `channel`'s SI unit as it is (a
+    channel of no known quantity: only with no unit stated)."""
     if not unit or unit == SI_UNITS.get(quantity or ""):
         return True
+    if quantity not in UNITS:
+        return False
     try:
         return known_unit(unit) and unit_factor(channel, unit, quantity) == 1.0
     except ConfigError:

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, DataError
-from .units import known_unit
+from .units import known_unit, split_unit
 
 DELIMITERS = {",": ",", ";": ";", "tab": "\t", "\\t": "\t", "\t": "\t", "space": None, "whitespace": None, " ": None}
 MISSING = ("", "nan", "na", "n/a", "null", "none")  # a field read as NaN (as pandas' read_csv does)
@@ -140,17 +140,6 @@ def unit_text(field: str) -> str:
     return f[1:-1].strip() if len(f) >= 2 and f[0] + f[-1] in ("[]", "()") else f
 
 
-def header_unit(name: str) -> str | None:
-    """The unit a column's name states, where it is one dcjax knows: `speed [rpm]`, `I(mA)`,
-    `speed_rpm`, `time ms` (the last word); else None."""
-
-    m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", name)
-    if m and known_unit(m.group(1)):
-        return m.group(1)
-    words = re.split(r"[_\s]+", name.strip())
-    return words[-1] if len(words) > 1 and known_unit(words[-1]) else None
-
-
 def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> Table:
     """The data of a delimited text file (module docstring), or a one-line error naming the
     line that breaks it."""
@@ -209,7 +198,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
     if len(set(header)) != len(header):
         raise DataError(f"{path}: repeated column names in the header {header}")
     data = np.array(values, dtype=np.float64)
-    units = {h: u for h, u in zip(header, units)} if units else {h: u for h in header if (u := header_unit(h)) is not None}
+    units = {h: u for h, u in zip(header, units)} if units else {h: u for h in header if (u := split_unit(h)[1]) is not None}
     return Table({h: data[:, k] for k, h in enumerate(header)}, units, np.array(lines), units_line)
 
 

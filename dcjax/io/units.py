@@ -97,17 +97,17 @@ def scale_factors(scale: dict | None, known: tuple[str, ...], where: str = "") -
     return out
 
 
-def _without_unit(header: str, unit: str | None) -> str:
-    """`header` less the unit it states at its end (`omega [rad/s]`, `I(mA)`, `speed_rpm`,
-    `time ms`): the rest; `header` itself where it states none."""
-    h = header.strip()
-    if unit:
-        u = re.escape(unit.strip())
-        for pattern in (rf"^(.+?)\s*[\[(]\s*{u}\s*[\])]$", rf"^(.+?)[_\s]+{u}$"):
-            m = re.match(pattern, h)
-            if m:
-                return m.group(1).strip()
-    return h
+def split_unit(name: str) -> tuple[str, str | None]:
+    """(the rest, the unit) of a column name that states a unit dcjax knows at its end: `speed
+    [rpm]`, `I(mA)`, `speed_rpm`, `time ms` (the last word); else (the name, None)."""
+    h = name.strip()
+    m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", h)
+    if m and known_unit(m.group(1)):
+        return h[: m.start()].strip(), m.group(1)
+    words = re.split(r"[_\s]+", h)
+    if len(words) > 1 and known_unit(words[-1]):
+        return h[: -len(words[-1])].rstrip("_ \t"), words[-1]
+    return h, None
 
 
 def _is_si(unit: str | None, channel: str, quantity: str | None) -> bool:
@@ -140,8 +140,8 @@ def named_columns(
         names = {c.lower(), "time"} if c == "t" else {c.lower()}  # the time column: `t` or `time`, whatever the model
         near = []
         for h in headers:
-            unit = stated.get(h)
-            if _without_unit(h, unit).lower() in names:
+            unit = stated.get(h)  # the units line's, else the name's
+            if split_unit(h)[0].lower() in names:
                 near.append((h, unit))
             elif h.strip().lower() in names:  # the "unit" is the name's last word (`U_A`): the whole name is the channel's
                 near.append((h, None))

@@ -550,6 +550,11 @@ def test_the_command_line_shows_its_flags_where_the_library_names_its_arguments(
         "--drop-nan drops such rows; give --bound y0_omega=LO:HI"
     )
     assert as_flags("constants={'k': V}, dt= or rate=; initial={'iq': 'measured'}") == "--const k=V, --dt or --rate; --initial iq=measured"
+    # a value a shell would split or read as syntax is quoted, so that the printed flag runs as it is
+    assert as_flags("map it with columns={'t': 't [ms]'}; give delimiter=';'") == "map it with --columns 't=t [ms]'; give --delimiter ';'"
+    h = _table(tmp_path / "ms.csv", "t [ms],u_a,i_a,omega", _rows(200))
+    assert cli.main(["fit", str(h), *TINY, "--out", str(tmp_path / "m")]) == 2
+    assert "--columns 't=t [ms]' and --units t=ms" in capsys.readouterr().err
     f = _table(tmp_path / "rpm.csv", "t,u_a,i_a,speed_rpm", _rows(200))
     assert cli.main(["fit", str(f), "--columns", "omega=speed_rpm", "--fix", "La=0", *TINY, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err

@@ -6,6 +6,7 @@ prints."""
 
 import ast
 import re
+import shlex
 
 # a mapping or a sequence of the library -> the flag's NAME=VALUE pairs or comma-separated names
 PAIRS = {
@@ -44,17 +45,18 @@ CALLS = [
 
 
 def _flag_value(text: str) -> str:
-    """A Python literal as the command line spells it: {'a': 1} -> a=1, ('a', 'b') -> a,b, 'x' -> x."""
+    """A Python literal as the command line spells it, quoted for a shell where it needs it:
+    {'a': 1} -> a=1, ('a', 'b') -> a,b, 'x' -> x, {'t': 't [ms]'} -> 't=t [ms]', ';' -> ';'."""
     try:
         v = ast.literal_eval(text)
     except (ValueError, SyntaxError):  # a placeholder in it: {'k': V} -> k=V
         items = re.findall(r"['\"]?([\w.]+)['\"]?\s*:\s*['\"]?([^,'\"{}]+?)['\"]?\s*(?:,|\}|$)", text)
         return ",".join(f"{k}={x}" for k, x in items) if text.startswith("{") and items else text
     if isinstance(v, dict):
-        return ",".join(f"{k}={x}" for k, x in v.items())
+        return shlex.quote(",".join(f"{k}={x}" for k, x in v.items()))
     if isinstance(v, (list, tuple)):
-        return ",".join(str(x) for x in v)
-    return str(v)
+        return shlex.quote(",".join(str(x) for x in v))
+    return shlex.quote(str(v))
 
 
 LITERAL = r"(\{[^{}]*\}|\([^()]*\)|\[[^\[\]]*\]|'[^']*'|\"[^\"]*\"|[^\s,;)]+)"

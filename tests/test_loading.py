@@ -51,6 +51,36 @@ def test_daq_file_loads_to_the_same_recording(tmp_path, sd1, delimiter, decimal)
     np.testing.assert_allclose(rec.t, sd1.t, rtol=1e-14, atol=1e-18)
     src = rec.metadata["source"]
     assert src["sha256"] and Path(src["path"]).name == "daq.txt" and src["load"]["units"] == UNITS
+    detected = load_recording(f, columns=COLUMNS, units=UNITS)  # the decimal separator not given: detected
+    for c in ("t", "u_a", "i_a", "omega"):
+        np.testing.assert_array_equal(detected[c], rec[c])
+
+
+def test_a_decimal_comma_is_detected_where_the_rows_are_numbers_only_with_it(tmp_path, sd1):
+    """A European spreadsheet's export (`0,0001;220;0,5`) loads without `decimal=","`, also where
+    the last rows hold integers only (`220;0;0`: the comma shows higher up); with `decimal="."`
+    given it stays a one-line error. The command line fits it with no `--decimal`."""
+
+    def euro(k, channels):
+        return ";".join(repr(float(sd1[c][k])).replace(".", ",") for c in channels)
+
+    f = tmp_path / "euro.csv"
+    f.write_text("t;u_a;i_a;omega\n" + "\n".join(euro(k, ("t", "u_a", "i_a", "omega")) for k in range(len(sd1))) + "\n")
+    rec = load_recording(f)
+    for c in ("t", "u_a", "i_a", "omega"):
+        np.testing.assert_array_equal(rec[c], sd1[c])
+    with pytest.raises(dcjax.DataError, match="cannot detect the delimiter"):
+        load_recording(f, decimal=".")
+    still = tmp_path / "still.csv"  # no time column (dt given); the motor held at rest at the end
+    still.write_text(
+        "u_a;i_a;omega\n" + "\n".join([*(euro(k, ("u_a", "i_a", "omega")) for k in range(len(sd1))), "220;0;0", "220;0;0"]) + "\n"
+    )
+    rec = load_recording(still, dt=1e-4)
+    np.testing.assert_array_equal(rec.omega[: len(sd1)], sd1.omega)
+    assert rec.omega[-1] == 0.0 and len(rec) == len(sd1) + 2
+    out = tmp_path / "fit"
+    assert main(["fit", str(f), "--runs", "1", "--budget", "300", "--out", str(out)]) == 0
+    assert json.loads((out / "result.json").read_text())["of"] < 1e-6  # SD1 read whole: the fit follows it
 
 
 @pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16-le", "utf-16-be"])

@@ -34,7 +34,7 @@ def add_data_options(p: argparse.ArgumentParser) -> None:
         "--units", type=mapping, default=None, help="channel=unit pairs, e.g. for the DC motor t=ms,i_a=mA,omega=rpm (converted to SI)"
     )
     g.add_argument("--delimiter", default=None, help="',', ';', 'tab' or 'whitespace' (default: detected)")
-    g.add_argument("--decimal", default=".", help="decimal separator, '.' or ','")
+    g.add_argument("--decimal", default=None, help="decimal separator, '.' or ',' (default: detected)")
     g.add_argument(
         "--drop-nan",
         action="store_true",

@@ -92,7 +92,7 @@ class Reading:
     dt: float | None = None
     rate: float | None = None
     delimiter: str | None = None
-    decimal: str = "."
+    decimal: str | None = None
     constants: Mapping[str, float] | None = None
     drop_nan: bool = False
 
@@ -104,11 +104,7 @@ class Reading:
     def to_dict(self) -> dict:
         """The non-default fields (result.json's `load` record)."""
         out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        return {
-            k: (dict(v) if isinstance(v, Mapping) else v)
-            for k, v in out.items()
-            if v not in (None, {}) and v is not False and not (k == "decimal" and v == ".")
-        }
+        return {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in out.items() if v not in (None, {}) and v is not False}
 
     @classmethod
     def from_record(cls, record: Mapping | None) -> "Reading":
@@ -233,7 +229,7 @@ def load_recording(
     columns: dict | None = None,
     units: dict | None = None,
     delimiter: str | None = None,
-    decimal: str = ".",
+    decimal: str | None = None,
     model: Model | str | None = None,
     name: str | None = None,
     limit: float | None = None,
@@ -253,7 +249,8 @@ def load_recording(
 
     - Text (`.csv .tsv .txt .dat`): the delimiter (`,` `;` tab, whitespace) is detected unless
       given; `#` lines and a preamble before the header are skipped; extra columns are ignored;
-      `decimal=","` reads `1,5` as 1.5. Also `.npz` (arrays by name; never unpickled) and MATLAB
+      `decimal` (`"."` or `","`) is detected unless given: a comma where the rows are numbers only
+      with it (`1,5;220`). Also `.npz` (arrays by name; never unpickled) and MATLAB
       `.mat`: a matrix is a column each (`name[0]`, `name[1]`, ...).
     - `columns`: channel -> column name (or 0-based index), e.g. `{"t": "time_ms", "i_a": "I"}`;
       a channel not mapped is looked up by its own name, or else by the one column named so (the

@@ -2,7 +2,9 @@
 an optional line of units, then data rows, every one of which is read or named in an error.
 
 The delimiter is detected from the file's last lines (read first, so that a file that is not a
-table fails before it is read whole). The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
+table fails before it is read whole), and so is the decimal separator where it is not given: a
+comma where the rows are numbers only with it (`0,5;220`: a European spreadsheet's export), else
+a point. The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
 (as Excel and Windows tools write them; `text_encoding`). The data are the rows of the last line's width from the
 first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
@@ -77,7 +79,8 @@ def _comment(line: str) -> str | None:
 
 
 def detect_delimiter(lines: list[str], decimal: str) -> str | None:
-    """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields."""
+    """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields
+    (with the `decimal` separator)."""
     for d in (";", "\t", ",", None):
         if d == "," and decimal == ",":
             continue
@@ -87,6 +90,32 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
     raise DataError(
         "cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or whitespace; give delimiter="
     )
+
+
+def detect_decimal(lines: list[str], delim: str | None) -> str:
+    """The decimal separator of rows split by `delim`: a comma where `delim` is not one and a
+    field of these lines is a number only with a comma (`0,5;220;1,25`), else a point."""
+    if delim != ",":
+        for line in lines:
+            fields = split_fields(without_trailing_delimiter(line), delim)
+            if any("," in f for f in fields) and row_values(fields, ",") is not None:
+                return ","
+    return "."
+
+
+def _detect(lines: list[str], decimal: str | None) -> tuple[str | None, str]:
+    """(delimiter, decimal separator) of the last lines, the separator detected where None:
+    the delimiter that splits them into numbers with a decimal point, else with a comma."""
+    if decimal is not None:
+        return detect_delimiter(lines, decimal), decimal
+    try:
+        delim = detect_delimiter(lines, ".")
+    except DataError as point:
+        try:
+            return detect_delimiter(lines, ","), ","
+        except DataError:
+            raise point from None
+    return delim, detect_decimal(lines, delim)
 
 
 # A byte-order mark and the encoding it names (Python's "utf-8-sig" and "utf-16" read the mark and drop it).
@@ -140,17 +169,17 @@ def unit_text(field: str) -> str:
     return f[1:-1].strip() if len(f) >= 2 and f[0] + f[-1] in ("[]", "()") else f
 
 
-def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> Table:
+def read_table(path: Path, delimiter: str | None = None, decimal: str | None = None) -> Table:
     """The data of a delimited text file (module docstring), or a one-line error naming the
-    line that breaks it."""
-    if decimal not in (".", ","):
+    line that breaks it. `delimiter`, `decimal`: None detects them."""
+    if decimal not in (None, ".", ","):
         raise ConfigError(f"decimal must be '.' or ',', got {decimal!r}")
     tail = _tail_lines(path)
     if not tail:
         raise DataError(f"{path}: no data rows (the file is empty or holds comments only)")
     if delimiter is None:
         try:
-            delim = detect_delimiter(tail, decimal)
+            delim, decimal = _detect(tail, decimal)
         except ValueError as e:
             text = [x for x in tail if x.strip()]
             if len(text) <= 2 and path.stat().st_size <= SNIFF_BYTES:
@@ -160,6 +189,8 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str = ".") -> 
         delim = DELIMITERS[delimiter]
     else:
         raise ConfigError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
+    if decimal is None:
+        decimal = detect_decimal(tail, delim)
     if delim == "," and decimal == ",":
         raise ConfigError("delimiter and decimal separator cannot both be ','")
     width = len(split_fields(tail[-1], delim))

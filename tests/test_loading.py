@@ -56,6 +56,7 @@ def test_daq_file_loads_to_the_same_recording(tmp_path, sd1, delimiter, decimal)
         np.testing.assert_array_equal(detected[c], rec[c])
 
 
+@pytest.mark.slow  # a CLI fit; the fast run's DAQ test detects the comma too
 def test_a_decimal_comma_is_detected_where_the_rows_are_numbers_only_with_it(tmp_path, sd1):
     """A European spreadsheet's export (`0,0001;220;0,5`) loads without `decimal=","`, also where
     the last rows hold integers only (`220;0;0`: the comma shows higher up); with `decimal="."`
@@ -276,12 +277,16 @@ def test_daq_sd1_fits_like_sd1_and_the_commands_work(tmp_path, capsys):
         (["report", "nothing.json"], "no such result file"),
     ],
 )
-def test_cli_loading_errors_are_one_line(tmp_path, sd1, args, match):
+def test_cli_loading_errors_are_one_line(tmp_path, sd1, args, match, capsys, monkeypatch):
+    """In this process (`main`, what `python -m dcjax` calls; `test_cli_module_entry_bad_file`
+    runs the module as a process)."""
     f = tmp_path / "daq.csv"
     write_daq(f, sd1)
     args = [str(f) if a == "FILE" else a for a in args]
-    p = subprocess.run([sys.executable, "-m", "dcjax", *args], capture_output=True, text=True, cwd=tmp_path)
-    assert p.returncode == 2 and match in p.stderr and "Traceback" not in p.stderr and p.stderr.count("\n") == 1, p.stderr
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err and err.count("\n") == 1, err
 
 
 def test_version():

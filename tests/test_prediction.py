@@ -118,6 +118,31 @@ def test_the_determinants_product_is_carried_exactly_and_differentiates():
     assert float(jnp.log(carried) + total * np.log(2.0)) == pytest.approx(np.sum(np.log(dets)), rel=1e-12)
 
 
+@pytest.mark.slow  # 5 s of compiling; the fast run fits no filter
+def test_the_filters_gradient_in_forward_mode_is_reverse_modes():
+    """`dcjax.gradients.forward_gradient` (what a short prediction-error polish and the noise fit
+    differentiate: P forward tangents, whatever mode the solver asks for) gives reverse mode's
+    gradient of the filter's likelihood on the NumPy reference's record, jitted and vmapped over
+    starts, and `forward_mode` takes it only below `FORWARD_WORK`."""
+    from dcjax.gradients import FORWARD_WORK, forward_gradient, forward_mode
+
+    rec, r = process_noise_record(2, n=60)
+    ekf = EKF.of(dcjax.DC(), process={"omega": Q[1]}, measurement={"i_a": r[0], "omega": r[1]})
+    prob = make_problem(rec, hold={"u_a": "zoh"}, predictor=ekf)
+    x = np.array([TRUTH[n] for n in prob.model.names])
+
+    def nll(z):  # of a relative step from the truth, as the polish's unbounded variable
+        return prediction_error(jnp.asarray(x) * (1.0 + z), prob, ekf)
+
+    starts = jnp.asarray(np.random.default_rng(0).uniform(-0.02, 0.02, (2, 7)))
+    reverse = jax.jit(jax.vmap(jax.value_and_grad(nll)))(starts)
+    forward = jax.jit(jax.vmap(jax.value_and_grad(forward_gradient(nll))))(starts)
+    np.testing.assert_array_equal(forward[0], reverse[0])
+    np.testing.assert_allclose(forward[1], reverse[1], rtol=1e-9, atol=1e-9 * float(jnp.max(jnp.abs(reverse[1]))))
+    assert float(jnp.max(jnp.abs(reverse[1]))) > 1.0  # away from the optimum: a gradient to compare
+    assert forward_mode(7, int(FORWARD_WORK) // 7 - 1) and not forward_mode(7, int(FORWARD_WORK) // 7 + 1)
+
+
 def test_a_problem_with_a_filter_scores_its_likelihood_and_bad_settings_are_one_line():
     rec, r = process_noise_record(1, n=200)
     ekf = EKF.of(dcjax.DC(), process={"omega": Q[1]}, measurement={"i_a": r[0], "omega": r[1]})

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..compiling import filter_jit
+from ..gradients import forward_gradient, forward_mode
 from ..simulation.joint import JointProblem
 from ..simulation.kalman import kalman_filter, predict, prediction_error
 from ..simulation.objectives import simulate_outputs
@@ -65,10 +66,12 @@ def _noise_of(z, template: EKF, states, r_lo, r_hi) -> EKF:
 def _fit_noise(z0, x, problem, template: EKF, adj, states: jax.Array, r_lo, r_hi):
     import optimistix as optx  # lazy: with lineax a tenth of a second of every dcjax import
 
-    def nll(z, _):
+    def nll(z):
         return prediction_error(x, problem, _noise_of(z, template, states, r_lo, r_hi), adj)
 
-    return optx.minimise(nll, optx.BFGS(rtol=1e-8, atol=1e-8), z0, max_steps=300, throw=False).value
+    steps = problem.n * int(getattr(problem.integrator, "substeps", 1))
+    differentiated = forward_gradient(nll) if forward_mode(z0.shape[0], steps) else nll
+    return optx.minimise(lambda z, _: differentiated(z), optx.BFGS(rtol=1e-8, atol=1e-8), z0, max_steps=300, throw=False).value
 
 
 def estimate_noise(target: JointProblem, x, starts: tuple[str, ...]) -> EKF:

@@ -34,8 +34,8 @@ def forward_gradient(fn: Callable[[Float[Array, " P"]], Float[Array, ""]]) -> Ca
 
 
 # Forward mode's evaluation costs about (P + 1) / 5 of reverse mode's, its compilation a fraction:
-# where P x the integration steps of an evaluation is below this, the compile seconds saved
-# outweigh the extra ones of a solver's ~250 steps. The paper's motor's prediction-error polish
+# where P x the integration steps of an evaluation (of every start a program runs) is below this,
+# the compile seconds saved outweigh the extra ones of a solver's ~250 steps. The paper's motor's prediction-error polish
 # (`python -m experiments.bench_forward_gradient`, 11 free parameters): 500 samples 0.74 of
 # reverse mode's time, 2,000 0.93, 8,000 1.19; the matrix's cell above (23,000) 0.46.
 FORWARD_WORK = 4e4

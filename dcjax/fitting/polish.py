@@ -121,6 +121,7 @@ def polish(
     rtol: float = 1e-12,
     atol: float = 1e-14,
     max_steps: int = 200,
+    starts: int = 1,
 ) -> PolishResult:
     """Minimize sum(r(x)^2) (= OF) with `levenberg_marquardt` from `x` (physical units, all
     parameters) over the free parameters of `space`; fixed ones stay at their values. `problem`:
@@ -130,7 +131,9 @@ def polish(
     Bounds: x = lower + (upper - lower) (sin(y) + 1) / 2, y unbounded. A start within 1e-12
     (relative) of a bound is moved that far inside. The result is only accepted when its OF is
     not larger than the start's; returns arrays only, so it vmaps. `converged` is False where
-    the solver stopped at `max_steps` or found no finite residual."""
+    the solver stopped at `max_steps` or found no finite residual. `starts`: how many starts are
+    polished in the same program (`polish_batch`), which a prediction-error fit's choice of
+    gradient weighs (`_quasi_newton`)."""
     eps = 1e-12
     target = (
         problem
@@ -139,7 +142,7 @@ def polish(
     )
 
     if _filters(target):
-        return _quasi_newton(x, target, space, eps, rtol, atol, max_steps)
+        return _quasi_newton(x, target, space, eps, rtol, atol, max_steps, starts)
 
     def fn(y):
         return target.residuals(space.to_physical(_to_unit(y)))
@@ -169,19 +172,20 @@ def evaluation_steps(target) -> int:
     return sum(p.n * int(getattr(p.integrator, "substeps", 1)) for p in target.problems)
 
 
-def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float, max_steps: int) -> PolishResult:
+def _quasi_newton(x, target, space: Space, eps: float, rtol: float, atol: float, max_steps: int, starts: int) -> PolishResult:
     """A prediction-error fit's polish: BFGS (`optimistix.BFGS`) on the objective itself, the
     innovations' negative log-likelihood with its log det S (least squares on the whitened
     innovations would inflate the fitted noise to shrink them), bounds kept as in `polish`. Its
-    gradient in forward mode where the evaluation is short (`dcjax.gradients.forward_mode`): the
-    solver's loop then compiles in about a quarter of the time."""
+    gradient in forward mode where the evaluations of its `starts` are short
+    (`dcjax.gradients.forward_mode`): the solver's loop then compiles in about a quarter of the time."""
 
     import optimistix as optx  # lazy: with lineax a tenth of a second of every dcjax import
 
     def objective(y):
         return target.objective(space.to_physical(_to_unit(y)))
 
-    differentiated = forward_gradient(objective) if forward_mode(len(space.free), evaluation_steps(target)) else objective
+    forward = forward_mode(len(space.free), evaluation_steps(target) * starts)
+    differentiated = forward_gradient(objective) if forward else objective
 
     def fn(y, _):
         return differentiated(y)
@@ -212,8 +216,8 @@ def _compiled(fn):
 
 
 polish_jit = _compiled(polish)
-_polish_vmapped = _compiled(jax.vmap(polish, in_axes=(0, None, None)))
-_polish_mapped = _compiled(lambda xs, problem, space: jax.lax.map(lambda x: polish(x, problem, space), xs))
+_polish_vmapped = _compiled(lambda xs, problem, space: jax.vmap(lambda x: polish(x, problem, space, starts=xs.shape[0]))(xs))
+_polish_mapped = _compiled(lambda xs, problem, space: jax.lax.map(lambda x: polish(x, problem, space, starts=xs.shape[0]), xs))
 FEW_RUNS = 4  # up to this many starts are polished one after another (`lax.map`): half the compile time of the vmapped loop
 
 

@@ -26,6 +26,10 @@ line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists
 |               |          | fitted model (`Model.time_constants`; DC: La/Ra); where the integration step |
 |               |          | (Euler, RK4: the interval over ND) does too, the fit is biased: --nd auto    |
 | `no-follow`   | warning  | after the fit: fit % <= 0 on a channel (the model does not follow it)        |
+| `held`        | warning  | after the fit: an input interpolated linearly steps between held values (at  |
+|               |          | most 10 % of its intervals change) and a channel's residual in the 3 samples |
+|               |          | from each step is over 5x its rms elsewhere and 0.1 % of its peak: a         |
+|               |          | zero-order hold, or a delay?                                                 |
 """
 
 import dataclasses
@@ -325,6 +329,63 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
     for c, v in fits.items():
         if not v > 0:
             out.append(Finding("no-follow", WARNING, f"fit % {v:.1f} <= 0: the model does not follow {c}", c))
+    biased = any("integration step" in f.message for f in out)  # the integrator's error concentrates at the steps too: that first
+    return out if biased else out + _held(result, rec)
+
+
+HELD_CHANGES = 0.1  # an input that changes in at most this share of its intervals steps between held values
+HELD_RATIO = 5.0  # a residual this many times its rms elsewhere in the samples from each step: the steps are mistimed
+HELD_SAMPLES = 3  # the samples from each step (the step's own and the next two)
+HELD_LEVEL = 1e-3  # ... and above this share of the channel's peak (not an integrator's rounding at the steps of noise-free data)
+
+
+def _steps(u: np.ndarray) -> np.ndarray:
+    """The samples where a stepwise input takes a new value (after its first), or none where it
+    changes in more than `HELD_CHANGES` of its intervals (a measured, continuous signal)."""
+    k = np.flatnonzero(np.diff(u) != 0) + 1
+    return k if 0 < k.size <= HELD_CHANGES * (u.size - 1) else k[:0]
+
+
+def _held(result, rec: Recording) -> list[Finding]:
+    """`held`: an input that steps between held values, interpolated linearly between samples
+    (eq. 29: each step moved into the interval before it), where a channel's residual is
+    concentrated in the samples from the steps (module docstring)."""
+    obs = getattr(result, "observation", None)
+    held = dict(getattr(obs, "hold", {}) or {})
+    stepwise = {
+        c: k
+        for c in result.model.inputs
+        if c in rec.channels and c not in rec.constants and c not in held and (k := _steps(np.asarray(rec[c], float))).size >= 2
+    }
+    if not stepwise:
+        return []
+    sim = np.asarray(result.simulate_outputs(rec))
+    out = []
+    for c, k in stepwise.items():
+        near = np.zeros(len(rec), bool)
+        for j in range(HELD_SAMPLES):
+            near[np.minimum(k + j, len(rec) - 1)] = True
+        if near.all():
+            continue
+        for j, ch in enumerate(result.model.outputs):
+            if ch not in rec.channels:
+                continue
+            e = np.asarray(rec[ch], float) - sim[:, j]
+            inside, outside = (float(np.sqrt(np.mean(e[m] ** 2))) for m in (near, ~near))
+            peak = float(np.max(np.abs(np.asarray(rec[ch], float))))
+            if outside > 0 and inside > HELD_RATIO * outside and inside > HELD_LEVEL * peak:
+                out.append(
+                    Finding(
+                        "held",
+                        WARNING,
+                        f"the residual of {ch} in the {HELD_SAMPLES} samples from each of the {k.size} steps of input {c} is "
+                        f"{inside / outside:.0f}x its rms elsewhere: if the input is held between samples (a DAQ's or a "
+                        f"controller's output), refit with hold={{{c!r}: 'zoh'}} (the default interpolates linearly between "
+                        f"samples, which moves each step into the interval before it); else an input delay, delays=({c!r},)?",
+                        c,
+                    )
+                )
+                break
     return out
 
 

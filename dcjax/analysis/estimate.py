@@ -116,7 +116,9 @@ def filtered_states(recording: Recording, model: Model, cutoff: float | None = N
     if missing:
         raise ConfigError(
             f"{recording._where()}initial_estimate needs every state of model {model.name} measured or the derivative of a measured one; "
-            f"missing {', '.join(missing)} (the recording has {', '.join(recording.channels)})"
+            f"missing {', '.join(missing)} (the recording has {', '.join(recording.channels)}): a model says which state is the time "
+            f"derivative of a measured one with Model.derivative_of ({{{missing[0]!r}: NAME}}); else give every parameter's range "
+            f"(params[{model.names[0]!r}].set(min=LO, max=HI))"
         )
     dy = {s: np.gradient(y[s], h) for s in model.states}
     return y, dy

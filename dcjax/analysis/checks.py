@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import DataError
 from ..io.recording import Recording
-from ..models import Model
+from ..models import DiscreteModel, Model
 from ..simulation.integrators import RK4, Euler
 from .report import channel_fit
 
@@ -350,6 +350,8 @@ def _held(result, rec: Recording) -> list[Finding]:
     """`held`: an input that steps between held values, interpolated linearly between samples
     (eq. 29: each step moved into the interval before it), where a channel's residual is
     concentrated in the samples from the steps (module docstring)."""
+    if isinstance(result.model, DiscreteModel):  # its map reads the inputs at the samples: nothing is interpolated
+        return []
     obs = getattr(result, "observation", None)
     held = dict(getattr(obs, "hold", {}) or {})
     stepwise = {

@@ -559,3 +559,21 @@ def test_the_command_line_shows_its_flags_where_the_library_names_its_arguments(
     assert cli.main(["fit", str(f), "--columns", "omega=speed_rpm", "--fix", "La=0", *TINY, "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "--units omega=rpm converts it" in err and "units={" not in err
+
+
+def test_a_flag_of_pairs_given_twice_adds_to_them_and_never_drops_one():
+    """`--bound Ra=0:10 --bound J=0:0.1` is `--bound Ra=0:10,J=0:0.1` (argparse kept the last
+    alone: a model file's every range given flag by flag still ran the auto estimate, which
+    could not, and said to give the ranges); names add up too; a pair given twice with two
+    values, or numbers given twice, is a one-line error; a plain value keeps the last."""
+    from dcjax.cli.parser import build_parser
+
+    p = build_parser()
+    a = p.parse_args(["fit", "x.csv", "--bound", "Ra=0:10", "--bound", "J=0:0.1", "--log", "Tlb", "--log", "Tlc,Tlb", "--fix", "Tlc=0"])
+    assert a.bound == {"Ra": (0.0, 10.0), "J": (0.0, 0.1)} and a.log == ("Tlb", "Tlc") and a.fix == {"Tlc": 0.0}
+    assert p.parse_args(["fit", "x.csv", "--units", "t=ms", "--units", "t=ms,omega=rpm"]).units == {"t": "ms", "omega": "rpm"}
+    with pytest.raises(dcjax.ConfigError, match=r"^argument --bound: Ra given twice \(\(0.0, 10.0\) and \(1.0, 10.0\)\)$"):
+        p.parse_args(["fit", "x.csv", "--bound", "Ra=0:10", "--bound", "Ra=1:10"])
+    with pytest.raises(dcjax.ConfigError, match="argument --weights: given twice"):
+        p.parse_args(["fit", "x.csv", "--weights", "1,1", "--weights", "2,2"])
+    assert p.parse_args(["fit", "x.csv", "--runs", "4", "--runs", "8"]).runs == 8

@@ -9,10 +9,35 @@ from ..errors import ConfigError
 from ..models.priors import prior_from_spec
 
 
+class Store(argparse._StoreAction):
+    """argparse's `store`, except that a flag of pairs or names given again adds to them
+    (`--bound Ra=0:10 --bound J=0:0.1` is `--bound Ra=0:10,J=0:0.1`), where argparse kept the last
+    one alone; a pair given twice with two values, or a flag of numbers given twice, is an error."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        before = getattr(namespace, self.dest, None)
+        if option_string is not None and before is not None and before is not self.default and isinstance(values, (dict, tuple)):
+            if isinstance(values, dict) and isinstance(before, dict):
+                clash = next((k for k in values if k in before and before[k] != values[k]), None)
+                if clash is not None:
+                    parser.error(f"argument {option_string}: {clash} given twice ({before[clash]} and {values[clash]})")
+                values = {**before, **values}
+            elif isinstance(before, tuple) and all(isinstance(v, str) for v in (*before, *values)):
+                values = tuple(dict.fromkeys((*before, *values)))
+            else:
+                parser.error(f"argument {option_string}: given twice; give its values once, comma-separated")
+        setattr(namespace, self.dest, values)
+
+
 class Parser(argparse.ArgumentParser):
     """argparse's parser whose errors (a malformed value, an unknown flag, a missing argument)
     are one `ConfigError` line, as every other bad input of the command line, instead of the
-    usage and an exit."""
+    usage and an exit; a flag of pairs or names given again adds to them (`Store`)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("action", None, Store)
+        self.register("action", "store", Store)
 
     def error(self, message: str):  # pyright: ignore[reportIncompatibleMethodOverride]
         raise ConfigError(message)

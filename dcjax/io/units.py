@@ -159,7 +159,12 @@ def named_columns(
                 if ours
                 else f"map {c}'s column with columns={{{c!r}: NAME}}"
             )
-            why[c] = f"column {h!r} names {c} in {unit}, not {SI_UNITS.get(quantity or '', 'SI')}: {fix}"
+            why[c] = (
+                f"column {h!r} names {c} in {unit}, not {SI_UNITS[quantity]}: {fix}"
+                if quantity in SI_UNITS
+                else f"column {h!r} states the unit {unit}, and the model gives {c} no quantity to check it against "
+                f"(Model.quantities): map it with columns={{{c!r}: {h!r}}} to read it as it is"
+            )
     return out, why
 
 

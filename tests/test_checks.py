@@ -287,6 +287,11 @@ def test_an_integration_step_longer_than_la_over_ra_biases_the_fit_and_says_so()
         slow = [f.message for f in findings if "integration step" in f.message]
         assert bool(slow) == (nd == 1) and all("which biases the fit; refit with integrator=dcjax.AutoSubsteps()" in m for m in slow), slow
         assert "held" not in {f.check for f in findings}  # interpolated as the data were (at ND=1 the integrator is named first)
+        if nd == 1:  # where --nd auto chose this ND (without converging), the check names a fixed ND that resolves La/Ra instead
+            chosen = [f.message for f in fit_findings(dataclasses.replace(r, nd_auto={"chosen": 1, "converged": False}))]
+            assert any("--nd auto stopped at ND=1" in m and m.endswith("refit with integrator=dcjax.RK4(substeps=2)") for m in chosen), (
+                chosen
+            )
     assert off[1] > 0.05 and off[4] < 0.01, off
 
 

@@ -313,10 +313,14 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
         if not (np.isfinite(tau) and dt > tau):
             continue
         if substeps is not None and dt / substeps > tau:
+            if getattr(result, "nd_auto", None):  # ND was chosen already (it did not converge): a fixed ND that resolves tau
+                nd = 2 ** math.ceil(math.log2(dt / tau))
+                fix = f"--nd auto stopped at ND={substeps} (nd_auto in result.json); refit with integrator=dcjax.{type(integrator).__name__}(substeps={nd})"
+            else:
+                fix = "refit with integrator=dcjax.AutoSubsteps() (ND chosen against a converged reference)"
             message = (
                 f"the integration step {dt / substeps:.3g} s (the sample interval over ND={substeps}) is longer than the fitted "
-                f"{name} = {tau:.3g} s: the simulation is far from converged there, which biases the fit; refit with "
-                "integrator=dcjax.AutoSubsteps() (ND chosen against a converged reference)"
+                f"{name} = {tau:.3g} s: the simulation is far from converged there, which biases the fit; {fix}"
             )
         else:
             message = (

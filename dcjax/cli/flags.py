@@ -41,6 +41,8 @@ CALLS = [
     (r"\brecordings=\[?\.\.\.\]?", "--data FILE"),
     (r"\bresult\.uncertainty\(\)", "--uncertainty"),
     (r"\bintegrator=dcjax\.AutoSubsteps\(\)", "--nd auto"),
+    (r"\bintegrator=dcjax\.RK4\(substeps=(\d+)\)", r"--nd \1"),
+    (r"\bintegrator=dcjax\.Euler\(substeps=(\d+)\)", r"--integrator euler --nd \1"),
 ]
 
 

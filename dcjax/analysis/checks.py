@@ -298,7 +298,8 @@ def fleet_findings(recordings: Sequence[Recording], model: Model, ratio: float =
 
 def fit_findings(result, recording: Recording | None = None, fits: dict[str, float] | None = None) -> list[Finding]:
     """After a fit: `slow-rate` (a sample interval longer than a time constant of the fitted
-    model) and `no-follow` (fit % <= 0 on a channel; `fits` as `channel_fit` gives them)."""
+    model), `no-follow` (fit % <= 0 on a channel; `fits` as `channel_fit` gives them) and `held`
+    (not where the integration step is named first: its error sits at the input's steps too)."""
     rec = recording if recording is not None else result.recording
     out: list[Finding] = []
     if rec is None:
@@ -309,10 +310,12 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
     )  # the model's parameters (a local one: the first recording's)
     integrator = getattr(result, "integrator", None)
     substeps = int(integrator.substeps) if isinstance(integrator, (Euler, RK4)) else None  # a fixed step: dt / ND
+    biased = False  # an integration step longer than a time constant
     for name, tau in result.model.time_constants(values).items():
         if not (np.isfinite(tau) and dt > tau):
             continue
         if substeps is not None and dt / substeps > tau:
+            biased = True
             if getattr(result, "nd_auto", None):  # ND was chosen already (it did not converge): a fixed ND that resolves tau
                 nd = 2 ** math.ceil(math.log2(dt / tau))
                 fix = f"--nd auto stopped at ND={substeps} (nd_auto in result.json); refit with integrator=dcjax.{type(integrator).__name__}(substeps={nd})"
@@ -328,13 +331,14 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
                 f"each change of the input show it; its standard error says how well they do"
             )
         out.append(Finding("slow-rate", WARNING, message))
+    sim = None
     if fits is None:
-        fits = channel_fit(result, rec)
+        sim = np.asarray(result.simulate_outputs(rec))
+        fits = channel_fit(result, rec, sim)
     for c, v in fits.items():
         if not v > 0:
             out.append(Finding("no-follow", WARNING, f"fit % {v:.1f} <= 0: the model does not follow {c}", c))
-    biased = any("integration step" in f.message for f in out)  # the integrator's error concentrates at the steps too: that first
-    return out if biased else out + _held(result, rec)
+    return out if biased else out + _held(result, rec, sim)
 
 
 HELD_CHANGES = 0.1  # an input that changes in at most this share of its intervals steps between held values
@@ -350,10 +354,11 @@ def _steps(u: np.ndarray) -> np.ndarray:
     return k if 0 < k.size <= HELD_CHANGES * (u.size - 1) else k[:0]
 
 
-def _held(result, rec: Recording) -> list[Finding]:
+def _held(result, rec: Recording, sim: np.ndarray | None = None) -> list[Finding]:
     """`held`: an input that steps between held values, interpolated linearly between samples
     (eq. 29: each step moved into the interval before it), where a channel's residual is
-    concentrated in the samples from the steps (module docstring)."""
+    concentrated in the samples from the steps (module docstring). `sim`: the fit's outputs on
+    `rec`, where the caller has them."""
     if isinstance(result.model, DiscreteModel):  # its map reads the inputs at the samples: nothing is interpolated
         return []
     obs = getattr(result, "observation", None)
@@ -365,7 +370,7 @@ def _held(result, rec: Recording) -> list[Finding]:
     }
     if not stepwise:
         return []
-    sim = np.asarray(result.simulate_outputs(rec))
+    sim = np.asarray(result.simulate_outputs(rec)) if sim is None else sim
     out = []
     for c, k in stepwise.items():
         near = np.zeros(len(rec), bool)

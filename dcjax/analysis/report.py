@@ -18,9 +18,10 @@ def fit_percent(measured: np.ndarray, simulated: np.ndarray) -> float:
     return float(100 * (1 - np.linalg.norm(y - np.asarray(simulated, float)) / d)) if d > 0 else float("nan")
 
 
-def channel_fit(result, recording) -> dict[str, float]:
-    """Fit % of every measured channel of `recording` under the result's best parameters."""
-    sim = result.simulate_outputs(recording)
+def channel_fit(result, recording, sim: np.ndarray | None = None) -> dict[str, float]:
+    """Fit % of every measured channel of `recording` under the result's best parameters (`sim`:
+    their simulated outputs, where the caller has them)."""
+    sim = result.simulate_outputs(recording) if sim is None else sim
     return {c: fit_percent(recording[c], sim[:, j]) for j, c in enumerate(result.model.outputs)}
 
 

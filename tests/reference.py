@@ -65,6 +65,13 @@ def spring_drive_field(p, u, y):
     return np.array([(u[0] - p["R"] * i - p["k"] * w) / 0.05, (p["k"] * i - 0.02 * w - p["K"] * th) / p["J"], w])
 
 
+def voice_coil_field(p, u, y):
+    """A moving coil on a spring, (di/dt, dv/dt, dx/dt): L di/dt = u - R i - Kf v,
+    m dv/dt = Kf i - c v - k x, dx/dt = v."""
+    i, v, x = y[0], y[1], y[2]
+    return np.array([(u[0] - p["R"] * i - p["Kf"] * v) / p["L"], (p["Kf"] * i - p["c"] * v - p["k"] * x) / p["m"], v])
+
+
 def abs_speed_sensor(states):
     """A pulse counter on a pulley of ratio 0.5 that cannot see the sign: y = |0.5 w|."""
     return np.abs(0.5 * states[:, 1])

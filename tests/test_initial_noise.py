@@ -72,6 +72,37 @@ def test_the_default_fits_a_noisy_start_and_keeps_a_clean_ones_first_sample(sd1)
     assert lo < 0.0 < hi and hi - lo < 20 * sd
 
 
+def test_the_derivative_of_a_noisy_fitted_state_is_fitted_too():
+    """A state that is the derivative of a noisy compared one (`Model.derivative_of`) and is not
+    recorded starts fitted with it (its slope estimate is rougher than the samples), over the
+    derivative's range, not the narrow one about a first sample; counted in MAX_FITTED_STARTS;
+    `initial={"v": "derivative"}` keeps the slope. (Its fit: tests/test_linear_actuator.py.)"""
+    from voice_coil import VoiceCoil
+
+    model = VoiceCoil()
+    rng = np.random.default_rng(1)
+    t = np.arange(400) * 1e-3
+    x = np.sin(20 * t) ** 2
+    recs = [
+        dcjax.Recording(
+            t=t, u=np.ones_like(t), i=np.cos(7 * t) + 0.01 * rng.standard_normal(t.size), x=x + 0.01 * rng.standard_normal(t.size)
+        )
+    ]
+    obs = dcjax.Observation().with_defaults(model.outputs, recs, model.derivative_of)
+    assert obs.initial == {"i": "fit", "x": "fit", "v": "fit"} and obs.derived == ("v",)
+    assert obs.defaulted("x") and not obs.defaulted("v")
+    assert any(n.startswith("note: v is the derivative of x, whose start is fitted") for n in obs.notes(model, recs))
+    space = dcjax.fitting.planning.plan(model).setup(recs, "auto").space
+    k = space.names.index("y0_v")
+    assert float(space.bounds.upper[k]) >= 1.5 * float(np.max(np.abs(np.gradient(recs[0]["x"], t))))  # the derivative's range
+    slope = dcjax.Observation(initial={"v": "derivative"}).with_defaults(model.outputs, recs, model.derivative_of)
+    assert slope.initial == {"v": "derivative", "i": "fit", "x": "fit"}
+    many = dcjax.Observation().with_defaults(model.outputs, recs * 6, model.derivative_of)  # 3 x 6 = 18 values > 16
+    assert many.initial == {} and many.derived == ()
+    clean = [r.replace(channels={**r.channels, "x": x}) for r in recs]
+    assert dcjax.Observation().with_defaults(model.outputs, clean, model.derivative_of).initial == {"i": "fit"}
+
+
 @pytest.mark.slow
 def test_a_noisy_pmsm_fit_is_within_two_standard_errors_by_default():
     """The issue's case: with the first noisy samples as initial states, parameters lie several

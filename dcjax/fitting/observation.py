@@ -73,6 +73,7 @@ class Observation:
     process: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     measurement: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     chosen: Mapping[str, str] = dataclasses.field(default_factory=dict, compare=False, repr=False)  # state -> why (with_defaults)
+    derived: tuple[str, ...] = dataclasses.field(default=(), compare=False, repr=False)  # chosen: the derivative of a noisy state
 
     def __post_init__(self):
         if not isinstance(self.loss, (str, Loss)):
@@ -164,17 +165,28 @@ class Observation:
             return "derivative"
         return 0.0
 
-    def with_defaults(self, compared: tuple[str, ...], recordings: list[Recording]) -> "Observation":
+    def with_defaults(
+        self, compared: tuple[str, ...], recordings: list[Recording], derivative_of: Mapping[str, str] | None = None
+    ) -> "Observation":
         """The observation with each of the `compared` states (the observed model's `outputs`) that
         `initial` does not name decided from the data (module docstring): `"fit"` where its channel
         is noisy in some recording (at most `MAX_FITTED_STARTS` values in all), else the first
-        sample (the unnamed default); `chosen` holds a note per noisy state, for `notes`."""
+        sample (the unnamed default); `chosen` holds a note per noisy state, for `notes`. A state
+        that is the derivative of such a state (`derivative_of`, the model's) and is not
+        recorded is fitted too (`derived`): the slope of a noisy channel's first samples is
+        rougher than the samples, and one that bends (a start from rest under a force that
+        builds) biases it whatever the noise."""
         open_states = [s for s in compared if s not in self.initial and all(s in r.channels for r in recordings)]
         share = {s: max(noise_share(r[s]) for r in recordings) for s in open_states}
         noisy = [s for s in open_states if share[s] > NOISE_SHARE]
         if not noisy:
             return self
-        count = len(noisy) * len(recordings)
+        derived = [
+            d
+            for d, src in (derivative_of or {}).items()
+            if src in noisy and d not in self.initial and d not in compared and not all(d in r.channels for r in recordings)
+        ]
+        count = (len(noisy) + len(derived)) * len(recordings)
         fits = count <= MAX_FITTED_STARTS
         chosen = {}
         for s in noisy:
@@ -189,12 +201,21 @@ class Observation:
                     f"note: {level}, but it starts at its first sample ({count} initial values > {MAX_FITTED_STARTS}), "
                     f"which biases the fit by about its noise; initial={{{s!r}: 'fit'}} fits it"
                 )
-        initial = {**self.initial, **{s: "fit" for s in noisy}} if fits else dict(self.initial)
-        return dataclasses.replace(self, initial=initial, chosen=chosen)
+        if not fits:
+            return dataclasses.replace(self, chosen=chosen)
+        for d in derived:
+            src = (derivative_of or {})[d]
+            chosen[d] = (
+                f"note: {d} is the derivative of {src}, whose start is fitted: its initial value is fitted too (y0_{d}); "
+                f"initial={{{d!r}: 'derivative'}} starts at the slope of {src}'s first samples, initial={{{d!r}: 0}} at rest"
+            )
+        initial = {**self.initial, **{s: "fit" for s in (*noisy, *derived)}}
+        return dataclasses.replace(self, initial=initial, chosen=chosen, derived=tuple(derived))
 
     def defaulted(self, state: str) -> bool:
-        """Whether `state`'s initial value is fitted by `with_defaults`' choice (its range is narrow)."""
-        return state in self.chosen and self.initial.get(state) == "fit"
+        """Whether `state`'s initial value is fitted by `with_defaults`' choice about its own
+        channel (its range is narrow: the first sample +- `START_SPREAD` noise sd)."""
+        return state in self.chosen and self.initial.get(state) == "fit" and state not in self.derived
 
     def fitted_states(self) -> tuple[str, ...]:
         return tuple(s for s, v in self.initial.items() if v == "fit")

@@ -124,8 +124,9 @@ def start_warnings(result: FitResult) -> list[str]:
             if result.observation.defaulted(state)
             else f"{lo:.4g}..{hi:.4g}"
         )
+        start = "'derivative'" if state in result.observation.derived else "'measured'"
         out.append(
             f"{name} ended on its range's bound ({where}): the fit wants another start, which the other parameters now "
-            f"absorb; give initial={{{state!r}: 'measured'}} or a wider range for {name.split('[')[0]}"
+            f"absorb; give initial={{{state!r}: {start}}} or a wider range for {name.split('[')[0]}"
         )
     return out

@@ -102,7 +102,7 @@ class Plan:
         local = [n for n, p in own.items() if p.local and not p.vary]
         if local and len(recordings) > 1:
             raise ConfigError(f"local: {', '.join(local)} is fixed (one known value); a local parameter must be searched")
-        observation = self.observation.with_defaults(tuple(c for c in model.outputs if c in model.states), recordings)
+        observation = self.observation.with_defaults(tuple(c for c in model.outputs if c in model.states), recordings, model.derivative_of)
         extras = observation.parameters(model, recordings, given)
         integrator = self.integrator.integrator if isinstance(self.integrator, AutoSubsteps) else self.integrator
         layout, vec = search_vector(model, recordings, own, extras, observation)

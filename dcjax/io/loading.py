@@ -257,7 +257,8 @@ def load_recording(
       time also `time`) but for case and a unit at its end that is the channel's SI unit or the
       one `units` gives (`OMEGA`, `Time (s)`, `omega (rad/s)`; `time_ms` with `units={"t": "ms"}`).
     - `units`: channel -> unit (`t`: s, ms, us; voltage: V, mV, kV; current: A, mA; speed: rad/s,
-      rpm, 1/min, rev/s, deg/s), converted to SI.
+      rpm, 1/min, rev/s, deg/s; a linear axis: m, mm, um; m/s, mm/s; N, kN: `io.units.UNITS`),
+      converted to SI.
     - `scale`: channel -> factor applied after the unit conversion (a speed logged in m/s at the
       wheel behind a 9.68:1 gear on a 30 mm wheel: `{"omega": 9.68 / 0.03}`).
     - `dt` (s) or `rate` (Hz): for a file without a time column, t = k dt.

@@ -22,8 +22,15 @@ UNITS: dict[str, dict[str, float]] = {
         "deg/s": np.pi / 180,
     },
     "angle": {"rad": 1.0, "deg": np.pi / 180, "rev": 2 * np.pi, "turns": 2 * np.pi},
-    "torque": {"Nm": 1.0, "mNm": 1e-3},
+    "torque": {"Nm": 1.0, "mNm": 1e-3, "Ncm": 1e-2},
+    "position": {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6, "µm": 1e-6},
+    "speed": {"m/s": 1.0, "mm/s": 1e-3, "cm/s": 1e-2, "m/min": 1 / 60},
+    "force": {"N": 1.0, "mN": 1e-3, "kN": 1e3},
 }
+
+# Units that a name's last word does not state (`omega_m`, `T_N`: more often a subscript, the
+# motor's, the rated); in brackets (`x [m]`), a units line or `units=` they do.
+SUBSCRIPT_LIKE = ("m", "N")
 
 # The SI unit a loaded channel is in, by the model's quantity.
 SI_UNITS = {
@@ -99,13 +106,14 @@ def scale_factors(scale: dict | None, known: tuple[str, ...], where: str = "") -
 
 def split_unit(name: str) -> tuple[str, str | None]:
     """(the rest, the unit) of a column name that states a unit dcjax knows at its end: `speed
-    [rpm]`, `I(mA)`, `speed_rpm`, `time ms` (the last word); else (the name, None)."""
+    [rpm]`, `I(mA)`, `x [m]`, `speed_rpm`, `time ms` (the last word, but not `m` or `N`:
+    `SUBSCRIPT_LIKE`); else (the name, None)."""
     h = name.strip()
     m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", h)
     if m and known_unit(m.group(1)):
         return h[: m.start()].strip(), m.group(1)
     words = re.split(r"[_\s]+", h)
-    if len(words) > 1 and known_unit(words[-1]):
+    if len(words) > 1 and words[-1] not in SUBSCRIPT_LIKE and known_unit(words[-1]):
         return h[: -len(words[-1])].rstrip("_ \t"), words[-1]
     return h, None
 

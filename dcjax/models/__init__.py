@@ -31,8 +31,10 @@ def get_model(model: "str | Model | type[Model] | None" = None) -> Model:
         raise ModelError(f"model must be a name {sorted(MODELS)}, 'package.module:attr' or a dcjax Model, got {model!r}")
     if model.lower() in MODELS:
         return MODELS[model.lower()]()
+    if ":" not in model and model.endswith(".py"):
+        return _defined_model(model)
     if ":" not in model:
-        raise ModelError(f"unknown model {model!r}; built-in models are {sorted(MODELS)}, or give 'package.module:attr'")
+        raise ModelError(f"unknown model {model!r}; built-in models are {sorted(MODELS)}, or give 'package.module:attr' or 'file.py'")
     mod_name, _, attr = model.rpartition(":")
     try:
         module = _import_file(mod_name) if mod_name.endswith(".py") else importlib.import_module(mod_name)
@@ -46,6 +48,26 @@ def get_model(model: "str | Model | type[Model] | None" = None) -> Model:
     if not isinstance(obj, Model):
         raise ModelError(f"{model!r} is not a dcjax Model (got {type(obj).__name__})")
     return obj
+
+
+def _defined_model(path: str) -> Model:
+    """The one `Model` subclass a `.py` file defines (not one it imports)."""
+    try:
+        module = _import_file(path)
+    except (ImportError, SyntaxError) as e:
+        raise ModelError(f"cannot import model {path!r}: {e}") from None
+    found = [
+        obj
+        for obj in vars(module).values()
+        if isinstance(obj, type)
+        and issubclass(obj, Model)
+        and obj.__module__ == module.__name__
+        and not getattr(obj, "__abstractmethods__", None)
+    ]
+    if len(found) != 1:
+        what = "no dcjax Model subclass" if not found else f"{len(found)} Model subclasses ({', '.join(c.__name__ for c in found)})"
+        raise ModelError(f"{path} defines {what}: give the model as '{path}:NAME'")
+    return found[0]()
 
 
 FILE_MODULE_PREFIX = "dcjax_model_file_"

@@ -57,7 +57,7 @@ def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     assert got["whiteness"] <= 0.1 and got["input_correlation"]["u"] <= 0.1, got  # sensor noise alone: white, not input-correlated
     assert json.loads((tmp_path / "f" / "validation.json").read_text())[0]["channels"]["y"] == got  # fit --validate: the same figures
     # the measured start (the angle's spec: 0, not recorded) is worse: the fitted start is what the records share
-    assert cli.main([*args, "--out", str(tmp_path / "m")]) == 0
+    assert cli.main([*args, "--initial", "measured", "--out", str(tmp_path / "m")]) == 0
     measured = json.loads((tmp_path / "m" / "validation.json").read_text())[0]["channels"]["y"]
     assert measured["rmse"] > 1.5 * got["rmse"], (measured["rmse"], got["rmse"])
     assert "fit %" in capsys.readouterr().out
@@ -66,6 +66,11 @@ def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     est = json.loads((tmp_path / "e" / "validation.json").read_text())[0]
     assert est["initial"] == "estimate" and abs(est["start"]["th"] - START[2]) < 0.01, est["start"]
     assert est["channels"]["y"]["rmse"] <= got["rmse"] * 1.001 and (tmp_path / "e" / est["residual_plot"]).is_file()
+    # the default (auto): the state whose start the fit fitted (th) estimated on the record, the others as their specs say
+    assert cli.main([*args, "--out", str(tmp_path / "a")]) == 0
+    auto = json.loads((tmp_path / "a" / "validation.json").read_text())[0]
+    assert auto["initial"] == "auto: th=estimate" and abs(auto["start"]["th"] - START[2]) < 0.01 and auto["start"]["i"] == 0.0
+    assert auto["channels"]["y"]["rmse"] <= got["rmse"] * 1.001
     assert cli.main([*args, "--initial", "th=estimate:200,i=measured", "--out", str(tmp_path / "k")]) == 0
     first = json.loads((tmp_path / "k" / "validation.json").read_text())[0]
     assert abs(first["start"]["th"] - START[2]) < 0.02 and first["start"]["i"] == 0.0, first["start"]

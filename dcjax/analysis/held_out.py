@@ -4,7 +4,9 @@ and several models side by side with their information criteria (`compare`).
 
 The protocol: each record is simulated from its first sample with the fit's parameters (its
 local values, offsets and delays: the first fitted recording's) and an initial state per state
-(`initial`): the record's own (`"measured"`: a recorded state's first sample, as the fit's specs
+(`initial`): as the fit started its own (`"auto"`, the default: a state whose start the fit
+fitted is estimated on the record, as MATLAB's `compare` estimates it, the others as the fit's specs
+say), the record's own (`"measured"`: a recorded state's first sample, as the fit's specs
 say), the fit's (`"fitted"`: its fitted initial state, for records that share their start),
 estimated on the record with the parameters fixed (`"estimate"` over the whole record,
 `"estimate:K"` over its first K samples: MATLAB's `findstates`), or a number. A bare mode applies
@@ -32,7 +34,8 @@ from .initial_states import estimate_states, released, with_start
 from .metrics import channel_metrics, criteria, input_correlation, whiteness
 from .prediction import calibration, predicted
 
-INITIAL_MODES = ("measured", "fitted", "estimate")
+INITIAL_MODES = ("auto", "measured", "fitted", "estimate")
+DEFAULT_INITIAL = "auto"  # validate's, compare's and the CLI's
 Mode = str | float | tuple[str, int | None]  # "measured" | "fitted" | ("estimate", samples or None) | a value
 
 
@@ -129,15 +132,17 @@ def _mode(text, state: str) -> Mode:
         v = float("nan")
     if math.isfinite(v):
         return v
-    raise ConfigError(
-        f"initial: {state or 'mode'} {text!r}: give measured, fitted, estimate, estimate:K (K >= 2 samples) or a finite number"
-    )
+    modes = "measured, fitted, estimate, estimate:K (K >= 2 samples) or a finite number"
+    raise ConfigError(f"initial: {state} {text!r}: give {modes}" if state else f"initial: mode {text!r}: give auto, {modes}")
 
 
 def initial_modes(result, initial) -> dict[str, Mode]:
     """State -> mode of `initial` (module docstring): a bare mode for every state, or
-    `"STATE=MODE,..."` / a dict for some (the others measured); one-line errors."""
+    `"STATE=MODE,..."` / a dict for some (the others measured); one-line errors. `"auto"` (None):
+    every state whose start the fit fitted estimated over the record."""
     states = result.model.states
+    if initial is None or (isinstance(initial, str) and initial.strip() == "auto"):
+        return dict.fromkeys(fitted_starts(result), ("estimate", None))
     if isinstance(initial, str) and "=" not in initial:
         mode = _mode(initial, "")
         if mode == "fitted":
@@ -169,7 +174,11 @@ def initial_modes(result, initial) -> dict[str, Mode]:
     return {s: m for s, m in modes.items() if m != "measured"}
 
 
-def _mode_text(initial) -> str:
+def _mode_text(initial, modes: dict[str, Mode]) -> str:
+    """How the starts were set: `initial` as given, `"auto"` as what it chose (`"measured"` where
+    the fit fitted no start, else `"auto: S=estimate,..."`)."""
+    if initial is None or (isinstance(initial, str) and initial.strip() == "auto"):
+        return "measured" if not modes else "auto: " + ",".join(f"{s}=estimate" for s in modes)
     return initial if isinstance(initial, str) else ",".join(f"{s}={v}" for s, v in initial.items())
 
 
@@ -200,7 +209,9 @@ def held_out_start(result, recording: Recording, modes: dict[str, Mode], x) -> J
     return with_start(released(target, idx), z, np.asarray(idx))
 
 
-def validate(result, recordings: Sequence[Recording], initial="measured", skip: int = 0, predict: int | None = None) -> list[Validation]:
+def validate(
+    result, recordings: Sequence[Recording], initial=DEFAULT_INITIAL, skip: int = 0, predict: int | None = None
+) -> list[Validation]:
     """`Validation` of `result` on each of `recordings` (module docstring); `predict=K`: the
     figures of the K-step-ahead prediction by the fit's Kalman filter, with the innovations'
     calibration (`dcjax.analysis.prediction`)."""
@@ -239,12 +250,14 @@ def validate(result, recordings: Sequence[Recording], initial="measured", skip: 
             extra = {"predict": int(predict), "calibration": calibration(forecast.whitened[skip:], m.outputs),  # pyright: ignore[reportArgumentType]
                      "noise": forecast.noise, "noise_estimated": forecast.estimated}  # fmt: skip
         out.append(
-            Validation(rec.name, _mode_text(initial), int(skip), len(rec) - skip, of, channels, start, np.stack(res, axis=1), **extra)
+            Validation(
+                rec.name, _mode_text(initial, modes), int(skip), len(rec) - skip, of, channels, start, np.stack(res, axis=1), **extra
+            )
         )
     return out
 
 
-def compare(recordings: Sequence[Recording], *results, initial="measured", skip: int = 0) -> list[dict]:
+def compare(recordings: Sequence[Recording], *results, initial=DEFAULT_INITIAL, skip: int = 0) -> list[dict]:
     """Several fits on the same held-out `recordings`, side by side (MATLAB's `compare` with
     `aic`/`fpe`): per result its model, free parameters, each record's `Validation` and the
     information criteria AIC, AICc, BIC, FPE of all the records' residuals together (each channel

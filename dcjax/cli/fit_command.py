@@ -7,6 +7,7 @@ import dataclasses
 import sys
 from collections.abc import Mapping
 
+from ..analysis.held_out import DEFAULT_INITIAL
 from ..errors import ConfigError
 from ..fitting.observation import Observation
 from ..fitting.parameter_spec import ParameterSpec
@@ -131,7 +132,7 @@ def _add_held_out_arguments(f: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--validate", nargs="+", default=None, metavar="FILE", help="held-out recordings to validate the fit on, read as the fitted ones"
     )
-    g.add_argument("--validate-initial", default="measured", help=INITIAL_HELP)
+    g.add_argument("--validate-initial", default=DEFAULT_INITIAL, help=INITIAL_HELP)
     g.add_argument("--validate-skip", default="0", help=SKIP_HELP)
 
 
@@ -213,7 +214,7 @@ class HeldOut:
     """`--validate`'s recordings, each record's `initial` state mode and the samples to `skip`."""
 
     data: tuple[str, ...]
-    initial: str = "measured"
+    initial: str = DEFAULT_INITIAL
     skip: int = 0
 
 
@@ -255,7 +256,7 @@ class FitCommand:
             raise ConfigError(f"--plots {args.plots} goes with --each; a single or joint fit writes fit.png unless --plots none")
         if args.validate and args.each:
             raise ConfigError("--validate goes with a single or joint fit, not --each (dcjax validate RESULT FILE for one of its results)")
-        if not args.validate and (args.validate_initial != "measured" or args.validate_skip != "0"):
+        if not args.validate and (args.validate_initial != DEFAULT_INITIAL or args.validate_skip != "0"):
             raise ConfigError("--validate-initial and --validate-skip go with --validate FILE")
         held_out = (
             HeldOut(tuple(args.validate), args.validate_initial, skip_samples(args.validate_skip, "--validate-skip"))

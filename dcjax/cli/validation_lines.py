@@ -11,7 +11,8 @@ from ..io.files import strict_json, write_text
 from .output import file_names
 
 INITIAL_HELP = (
-    "each record's initial state: measured (a recorded state's first sample, as the fit's specs say; the default), fitted "
+    "each record's initial state: auto (the default: a state whose start the fit fitted is estimated on the record, the "
+    "others as the fit's specs say), measured (a recorded state's first sample, as the fit's specs say), fitted "
     "(the fit's fitted initial states: records that share their start), estimate (estimated on the record with the parameters "
     "fixed; estimate:K on its first K samples), or STATE=MODE|VALUE pairs, e.g. x1=estimate,y=measured"
 )
@@ -41,7 +42,9 @@ def validation_report(res, recs, initial: str, skip: int, out: Path, predict: in
     width = max(12, *(len(r.name) for r in recs))
     lines = []
     mode = "simulation" if predict is None else f"{predict}-step-ahead prediction"
-    lines.append(f"{mode}; initial state {initial}; {skip} sample(s) skipped; residual tests over lags 1..{LAGS} (99 % bands)")
+    lines.append(
+        f"{mode}; initial state {vals[0].initial if vals else initial}; {skip} sample(s) skipped; residual tests over lags 1..{LAGS} (99 % bands)"
+    )
     lines.append(
         f"{'recording':>{width}} {'output':>10} {'OF':>12} {'rmse':>12} {'nrmse':>9} {'fit %':>9} {'R2':>9} {'mae':>12} "
         f"{'white':>6} {'input':>6}"

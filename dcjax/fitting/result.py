@@ -459,12 +459,13 @@ class FitResult:
             raise ConfigError("no recording: the result was loaded without its data; pass a recording")
         return simulated_recording(self, rec)
 
-    def validate(self, recordings, initial: str = "measured", skip: int = 0, predict: int | None = None) -> list:
+    def validate(self, recordings, initial: "str | dict | None" = None, skip: int = 0, predict: int | None = None) -> list:
         """The held-out figures of this fit on `recordings` (`dcjax.analysis.held_out.validate`):
         per recording and output rmse, nrmse, fit %, R^2, mae and the residual tests. `initial`:
-        "measured" (each state as its spec says: a recorded state's first sample) or "fitted"
-        (the fit's fitted initial states); `skip`: samples left out at the start; `predict=K`:
-        of the K-step-ahead prediction (a Kalman filter's)."""
+        None ("auto": a state whose start the fit fitted is estimated on the record, the others
+        as their specs say), "measured" (each state as its spec says: a recorded state's first
+        sample), "fitted" (the fit's fitted initial states) or "estimate"; `skip`: samples left
+        out at the start; `predict=K`: of the K-step-ahead prediction (a Kalman filter's)."""
         from ..analysis.held_out import validate  # lazy: the analysis a user asks for
 
         return validate(self, recordings, initial=initial, skip=skip, predict=predict)

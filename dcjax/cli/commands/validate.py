@@ -1,6 +1,7 @@
 """`dcjax validate`: a saved result judged on other recordings (`dcjax.analysis.held_out`): per
 recording and output its OF, rmse, nrmse, fit %, R², mae and the residual tests, with plots."""
 
+from ...analysis.held_out import DEFAULT_INITIAL
 from ...errors import ConfigError
 from ..common import Loader, add_data_options, add_output_options, add_result_options, load_like_fit, saved_result
 from ..output import announce, output_folder
@@ -13,7 +14,7 @@ def add_parser(sub) -> None:
     )
     v.add_argument("result", help="result.json of a fit")
     v.add_argument("data", nargs="+", help="data file(s) or embedded names")
-    v.add_argument("--initial", default="measured", help=INITIAL_HELP)
+    v.add_argument("--initial", default=DEFAULT_INITIAL, help=INITIAL_HELP)
     v.add_argument("--skip", default="0", help=SKIP_HELP)
     v.add_argument("--predict", type=int, default=None, metavar="K", help=PREDICT_HELP)
     add_output_options(v, "out", "validation.json and the plots")

@@ -210,7 +210,7 @@ def held_out_start(result, recording: Recording, modes: dict[str, Mode], x) -> J
 
 
 def validate(
-    result, recordings: Sequence[Recording], initial=DEFAULT_INITIAL, skip: int = 0, predict: int | None = None
+    result, recordings: Sequence[Recording], initial: "str | dict | None" = DEFAULT_INITIAL, skip: int = 0, predict: int | None = None
 ) -> list[Validation]:
     """`Validation` of `result` on each of `recordings` (module docstring); `predict=K`: the
     figures of the K-step-ahead prediction by the fit's Kalman filter, with the innovations'
@@ -257,7 +257,7 @@ def validate(
     return out
 
 
-def compare(recordings: Sequence[Recording], *results, initial=DEFAULT_INITIAL, skip: int = 0) -> list[dict]:
+def compare(recordings: Sequence[Recording], *results, initial: "str | dict | None" = DEFAULT_INITIAL, skip: int = 0) -> list[dict]:
     """Several fits on the same held-out `recordings`, side by side (MATLAB's `compare` with
     `aic`/`fpe`): per result its model, free parameters, each record's `Validation` and the
     information criteria AIC, AICc, BIC, FPE of all the records' residuals together (each channel

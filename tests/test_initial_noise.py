@@ -72,11 +72,13 @@ def test_the_default_fits_a_noisy_start_and_keeps_a_clean_ones_first_sample(sd1)
     assert lo < 0.0 < hi and hi - lo < 20 * sd
 
 
-def test_the_derivative_of_a_noisy_fitted_state_is_fitted_too():
-    """A state that is the derivative of a noisy compared one (`Model.derivative_of`) and is not
-    recorded starts fitted with it (its slope estimate is rougher than the samples), over the
-    derivative's range, not the narrow one about a first sample; counted in MAX_FITTED_STARTS;
-    `initial={"v": "derivative"}` keeps the slope. (Its fit: tests/test_linear_actuator.py.)"""
+def test_the_derivative_of_a_recorded_state_starts_fitted():
+    """A state that is the derivative of a recorded one (`Model.derivative_of`) and is not
+    recorded starts fitted, the recorded state noisy or clean (its slope estimate is rough on
+    noise and biased where the motion bends), over the derivative's range, not the narrow one
+    about a first sample; counted in MAX_FITTED_STARTS; `initial={"v": "derivative"}` keeps the
+    slope. Where both would be more than MAX_FITTED_STARTS, the compared states' starts come first.
+    (Its fit: tests/test_linear_actuator.py.)"""
     from voice_coil import VoiceCoil
 
     model = VoiceCoil()
@@ -91,16 +93,19 @@ def test_the_derivative_of_a_noisy_fitted_state_is_fitted_too():
     obs = dcjax.Observation().with_defaults(model.outputs, recs, model.derivative_of)
     assert obs.initial == {"i": "fit", "x": "fit", "v": "fit"} and obs.derived == ("v",)
     assert obs.defaulted("x") and not obs.defaulted("v")
-    assert any(n.startswith("note: v is the derivative of x, whose start is fitted") for n in obs.notes(model, recs))
+    assert any(n.startswith("note: v is the derivative of x: its initial value is fitted (y0_v)") for n in obs.notes(model, recs))
     space = dcjax.fitting.planning.plan(model).setup(recs, "auto").space
     k = space.names.index("y0_v")
     assert float(space.bounds.upper[k]) >= 1.5 * float(np.max(np.abs(np.gradient(recs[0]["x"], t))))  # the derivative's range
     slope = dcjax.Observation(initial={"v": "derivative"}).with_defaults(model.outputs, recs, model.derivative_of)
     assert slope.initial == {"v": "derivative", "i": "fit", "x": "fit"}
     many = dcjax.Observation().with_defaults(model.outputs, recs * 6, model.derivative_of)  # 3 x 6 = 18 values > 16
-    assert many.initial == {} and many.derived == ()
+    assert many.initial == {"i": "fit", "x": "fit"} and many.derived == ()  # the compared states' starts first
+    assert any(n.startswith("note: state v starts at the derivative of x") for n in many.notes(model, recs * 6))
     clean = [r.replace(channels={**r.channels, "x": x}) for r in recs]
-    assert dcjax.Observation().with_defaults(model.outputs, clean, model.derivative_of).initial == {"i": "fit"}
+    assert dcjax.Observation().with_defaults(model.outputs, clean, model.derivative_of).initial == {"i": "fit", "v": "fit"}
+    assert dcjax.Observation().with_defaults(model.outputs, clean * 9, model.derivative_of).initial == {"i": "fit"}  # 2 x 9 > 16
+    assert dcjax.Observation().with_defaults(model.outputs, clean * 17, model.derivative_of).initial == {}  # 17 > 16
 
 
 @pytest.mark.slow

@@ -1,7 +1,7 @@
 """A linear actuator (`tests/voice_coil.py`: a moving coil on a spring, its position logged in
 mm) through the loaders and the CLI, on data from the NumPy reference (`voice_coil_field`): the
 length, speed and force units, a model file named without its class, and the start of a speed
-that is the derivative of a noisy position."""
+that is the derivative of a recorded position."""
 
 from pathlib import Path
 
@@ -76,15 +76,28 @@ def test_a_model_file_without_its_class_names_the_one_it_defines(tmp_path):
 def test_a_speed_that_is_a_noisy_positions_derivative_starts_fitted(tmp_path, capsys):
     """From rest under a force that builds (i = 0 at the start), x bends as t^3: the slope of a
     quadratic through its first samples is off by tens of its noise sd, and every parameter
-    took that start (m -1.1 %, L +0.7 %, OF 3.6x). Fitted with x's start, as x is noisy:
-    within 0.11 % (L), the others within 0.02 %."""
+    took that start (m -1.1 %, L +0.7 %, OF 3.6x). Fitted: within 0.11 % (L), the others
+    within 0.02 %."""
     f = written(tmp_path / "coil.csv", "t [ms];u [V];i [mA];x [mm]", recording())
     fit = ["fit", str(f), "--model", MODEL, "--units", "t=ms,i=mA,x=mm", "--runs", "4", "--plots", "none"]
     assert cli.main([*fit, "--out", str(tmp_path / "fit")]) == 0
-    assert "note: v is the derivative of x, whose start is fitted: its initial value is fitted too (y0_v)" in capsys.readouterr().out
+    assert "note: v is the derivative of x: its initial value is fitted (y0_v)" in capsys.readouterr().out
     res = dcjax.load_result(tmp_path / "fit" / "result.json", model=MODEL)
     assert res.observation.initial == {"i": "fit", "x": "fit", "v": "fit"}
     assert max(abs(res.best_values[n] / v - 1) for n, v in TRUTH.items()) < 2e-3
     assert cli.main([*fit, "--initial", "v=derivative", "--out", str(tmp_path / "slope")]) == 0
     slope = dcjax.load_result(tmp_path / "slope" / "result.json", model=MODEL)
     assert slope.of > 3 * res.of and abs(slope.best_values["m"] / TRUTH["m"] - 1) > 5e-3
+
+
+def test_a_known_value_counts_as_a_range_where_nothing_can_be_estimated():
+    """With the current not logged, `--bounds auto` has nothing to estimate from (one line says to
+    give every range); a parameter fixed by its known value (`--fix R=4`) needed a range as well."""
+    rows = recording(120)
+    model = VoiceCoil().measuring(("x",))
+    rec = dcjax.Recording(t=rows[:, 0] * 1e-3, u=rows[:, 1], x=rows[:, 3] * 1e-3)
+    ranges = {n: (0.5 * v, 2 * v) for n, v in TRUTH.items() if n != "R"}
+    params = dcjax.ParameterSpec(ranges=ranges, fixed={"R": 4.0}).resolve(model, rec)
+    assert params["R"].value == 4.0 and not params["R"].vary and (params["L"].min, params["L"].max) == ranges["L"]
+    with pytest.raises(dcjax.ConfigError, match=r"missing i .*give every parameter's range \(params\['R'\].set\(min=LO, max=HI\)\)$"):
+        dcjax.ParameterSpec(ranges=ranges).resolve(model, rec)

@@ -7,15 +7,19 @@ An initial state is given per state as a number, `"measured"` (the first sample)
 (the value at the first sample of a least-squares quadratic through the first `START_SAMPLES`
 samples: less noise than the first sample where the transient is smooth over them),
 `"derivative"` (the slope there of the quadratic through the state it is `Model.derivative_of`;
-the default for such a state) or `"fit"` (a free parameter `y0_<state>`, one per recording). Any other state starts at 0 (`Observation.notes`).
+the default for such a state beyond `MAX_FITTED_STARTS`) or `"fit"` (a free parameter `y0_<state>`, one per recording). Any other state starts at 0 (`Observation.notes`).
 
 The default of a compared state is decided from the data (`Observation.with_defaults`): its first
 sample where the channel is clean, a fitted `y0_<state>` where it is noisy (`noise_level` above
 `NOISE_SHARE` of its range in some recording). A noisy first sample is off by about one noise sd,
 and a wrong start shifts every sample of the state's transient the same way: the fitted
 parameters move by several of their standard errors whatever the noise level (the ratio does not
-shrink with the noise). A defaulted `y0` searches the first sample +- `START_SPREAD` noise levels;
-beyond `MAX_FITTED_STARTS` such values in one fit (hundreds of recordings) the first samples stay.
+shrink with the noise). A defaulted `y0` searches the first sample +- `START_SPREAD` noise levels.
+A state that is the derivative of a recorded one (a velocity of a logged position) and is not
+recorded is fitted too, over +-1.5x the largest derivative: the slope of the first samples is off
+where they are noisy or the motion bends over them. Beyond `MAX_FITTED_STARTS` such values in one
+fit (hundreds of recordings) the first samples and slopes stay (the compared states' starts are
+fitted first).
 `AutoSubsteps` (nd auto) refits with them: its diffrax reference starts from the fitted state."""
 
 import dataclasses
@@ -73,7 +77,7 @@ class Observation:
     process: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     measurement: Mapping[str, "float | str"] = dataclasses.field(default_factory=dict)
     chosen: Mapping[str, str] = dataclasses.field(default_factory=dict, compare=False, repr=False)  # state -> why (with_defaults)
-    derived: tuple[str, ...] = dataclasses.field(default=(), compare=False, repr=False)  # chosen: the derivative of a noisy state
+    derived: tuple[str, ...] = dataclasses.field(default=(), compare=False, repr=False)  # chosen: a recorded state's derivative
 
     def __post_init__(self):
         if not isinstance(self.loss, (str, Loss)):
@@ -170,24 +174,29 @@ class Observation:
     ) -> "Observation":
         """The observation with each of the `compared` states (the observed model's `outputs`) that
         `initial` does not name decided from the data (module docstring): `"fit"` where its channel
-        is noisy in some recording (at most `MAX_FITTED_STARTS` values in all), else the first
-        sample (the unnamed default); `chosen` holds a note per noisy state, for `notes`. A state
-        that is the derivative of such a state (`derivative_of`, the model's) and is not
-        recorded is fitted too (`derived`): the slope of a noisy channel's first samples is
-        rougher than the samples, and one that bends (a start from rest under a force that
-        builds) biases it whatever the noise."""
+        is noisy in some recording, else the first sample (the unnamed default); and each state
+        that is the derivative of a recorded one (`derivative_of`, the model's) and is not itself
+        recorded `"fit"` (`derived`): the slope of the first samples is rough where they are
+        noisy and biased where the motion bends over them (a start from rest under a force that
+        builds). At most `MAX_FITTED_STARTS` values in all, the compared states' first (else the
+        first samples and slopes stay); `chosen` holds a note per state, for `notes`."""
         open_states = [s for s in compared if s not in self.initial and all(s in r.channels for r in recordings)]
         share = {s: max(noise_share(r[s]) for r in recordings) for s in open_states}
         noisy = [s for s in open_states if share[s] > NOISE_SHARE]
-        if not noisy:
-            return self
         derived = [
             d
             for d, src in (derivative_of or {}).items()
-            if src in noisy and d not in self.initial and d not in compared and not all(d in r.channels for r in recordings)
+            if d not in self.initial
+            and d not in compared
+            and not all(d in r.channels for r in recordings)
+            and all(src in r.channels for r in recordings)
         ]
-        count = (len(noisy) + len(derived)) * len(recordings)
+        if not noisy and not derived:
+            return self
+        count = len(noisy) * len(recordings)
         fits = count <= MAX_FITTED_STARTS
+        if (len(noisy) + len(derived)) * len(recordings) > MAX_FITTED_STARTS:
+            derived = []  # the compared states' starts first; a slope stays where both would be too many
         chosen = {}
         for s in noisy:
             level = f"{s}'s noise is {share[s]:.1e} of its range"
@@ -206,7 +215,7 @@ class Observation:
         for d in derived:
             src = (derivative_of or {})[d]
             chosen[d] = (
-                f"note: {d} is the derivative of {src}, whose start is fitted: its initial value is fitted too (y0_{d}); "
+                f"note: {d} is the derivative of {src}: its initial value is fitted (y0_{d}); "
                 f"initial={{{d!r}: 'derivative'}} starts at the slope of {src}'s first samples, initial={{{d!r}: 0}} at rest"
             )
         initial = {**self.initial, **{s: "fit" for s in (*noisy, *derived)}}

@@ -90,8 +90,10 @@ class ParameterSpec:
             bounds = Bounds(list(self.lower), list(self.upper), model.names)
         else:
             preset = self.preset or sidecar_preset(recordings, model)
-            if preset.lower() == "auto" and set(model.names) <= set(given):  # every range given: nothing to estimate
-                bounds = Bounds([given[n][0] for n in model.names], [given[n][1] for n in model.names], model.names)
+            known = {n: (float(v), float(v)) for n, v in self.fixed.items() if n in model.names and n not in given}
+            if preset.lower() == "auto" and set(model.names) <= set(given) | set(known):  # every range given or value known
+                ranges = {**known, **given}
+                bounds = Bounds([ranges[n][0] for n in model.names], [ranges[n][1] for n in model.names], model.names)
             elif preset.lower() == "auto":
                 bounds, start, _ = auto_bounds(recordings, model)
             else:

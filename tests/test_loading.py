@@ -56,6 +56,41 @@ def test_daq_file_loads_to_the_same_recording(tmp_path, sd1, delimiter, decimal)
         np.testing.assert_array_equal(detected[c], rec[c])
 
 
+def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
+    """A column of ISO 8601 timestamps (`2026-12-06 08:00:00.000100`, `...T...Z`) or times of day
+    (`23:59:59,9999` with a decimal comma) is the time in seconds after its first one, exact to the
+    microsecond (it said "cannot detect the delimiter"), a time of day past midnight too; `timestamp`
+    names the time column. Mixed time zones are a text cell: one line naming the line."""
+    import datetime
+
+    n = 200
+    start = datetime.datetime(2026, 12, 6, 23, 59, 59, 990000)  # over midnight and into a new day
+    stamps = [start + datetime.timedelta(microseconds=round(float(v) * 1e6)) for v in sd1.t[:n]]
+    body = [(sd1.u_a[k], sd1.i_a[k], sd1.omega[k]) for k in range(n)]
+
+    def written(name, header, stamp, sep=",", comma=False):
+        rows = [
+            sep.join([stamp(s), *(repr(float(v)).replace(".", ",") if comma else repr(float(v)) for v in b)]) for s, b in zip(stamps, body)
+        ]
+        f = tmp_path / name
+        f.write_text("\n".join([f"# logger started {stamps[0]}", header, *rows]) + "\n")
+        return f
+
+    for f in (
+        written("iso.csv", "timestamp,u_a,i_a,omega", lambda s: s.isoformat(sep=" ", timespec="microseconds")),
+        written("zulu.csv", "t,u_a,i_a,omega", lambda s: s.isoformat(timespec="microseconds") + "Z"),
+        written("eu.csv", "time;u_a;i_a;omega", lambda s: (s - datetime.timedelta(days=1)).strftime("%H:%M:%S,%f"), sep=";", comma=True),
+    ):
+        rec = load_recording(f)
+        assert np.max(np.abs(rec.t - sd1.t[:n])) < 1e-15 and rec.t[0] == 0.0, f.name
+        np.testing.assert_array_equal(rec.i_a, sd1.i_a[:n])
+    mixed = written("mixed.csv", "timestamp,u_a,i_a,omega", lambda s: s.isoformat() + ("Z" if s == stamps[7] else ""))
+    with pytest.raises(
+        dcjax.DataError, match=r"mixed.csv: line 10: field 0 \('2026-12-06T23:59:59.990700Z'\) is a timestamp that cannot follow"
+    ):
+        load_recording(mixed)
+
+
 @pytest.mark.slow  # a CLI fit; the fast run's DAQ test detects the comma too
 def test_a_decimal_comma_is_detected_where_the_rows_are_numbers_only_with_it(tmp_path, sd1):
     """A European spreadsheet's export (`0,0001;220;0,5`) loads without `decimal=","`, also where

@@ -9,12 +9,15 @@ a point. The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
 first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
 is empty, `nan`, `NA`, `null` or `none` is NaN (a row of them only, as loggers write between
-bursts, is a row of NaN: `drop_nan` drops it). The header is the nearest line of that width
+bursts, is a row of NaN: `drop_nan` drops it). A timestamp (ISO 8601, `2026-12-06 08:00:00.0001`,
+`2026-12-06T08:00:00Z`, or a time of day `08:00:00,0001`) is read as the seconds after the
+column's first one, exact to the microsecond (`Clocks`). The header is the nearest line of that width
 above the data (a commented one where there is no other); a line of units may stand between
 them. Units, from that line or a header such as `speed_rpm`, `I [mA]`, are kept per column
 (`Table.units`) for the caller to compare with what it converts."""
 
 import dataclasses
+import datetime
 import math
 import os
 import re
@@ -48,17 +51,62 @@ def split_fields(line: str, delim: str | None) -> list[str]:
     return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
 
 
-def row_values(fields: list[str], decimal: str) -> list[float] | None:
-    """The row's numbers (a `MISSING` field as NaN), or None where a field is neither a number
-    nor missing. One pass that both tests and converts."""
+TIMESTAMP = re.compile(
+    r"^\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?(?:Z|[+-]\d{2}(?::?\d{2})?)?$"  # ISO 8601 date and time
+    r"|^\d{1,2}:\d{2}:\d{2}(?:[.,]\d+)?$"  # a time of day
+)
+DAY = datetime.date(2000, 1, 1)  # a time of day's date (its seconds are taken after the column's first)
+
+
+class Clocks:
+    """Timestamps read as the seconds after their column's first one (the first read sets it):
+    the time differences exact to the microsecond, where seconds since 1970 in float64 would
+    round them to 0.24 µs. A time of day that falls back by more than 12 h has passed midnight.
+    One per file read; a throwaway one where only whether a field reads matters."""
+
+    def __init__(self):
+        self.origins: dict[int, datetime.datetime] = {}
+        self.last: dict[int, datetime.datetime] = {}  # a time-of-day column's last stamp, its date advanced past midnights
+
+    def seconds(self, column: int, text: str) -> float | None:
+        """`text` as seconds after column `column`'s first timestamp, or None where it is none."""
+        if not TIMESTAMP.match(text):
+            return None
+        t = text.replace(",", ".")
+        try:
+            if "-" in t[:5]:
+                stamp = datetime.datetime.fromisoformat(t)
+            else:
+                last = self.last.get(column)
+                stamp = datetime.datetime.combine(DAY if last is None else last.date(), datetime.time.fromisoformat(t))
+                if last is not None and last - stamp > datetime.timedelta(hours=12):
+                    stamp += datetime.timedelta(days=1)
+                self.last[column] = stamp
+            origin = self.origins.setdefault(column, stamp)
+            return (stamp - origin).total_seconds()
+        except (ValueError, TypeError):  # not a date (month 13), or one with a time zone among ones without
+            return None
+
+
+def row_values(fields: list[str], decimal: str, clocks: Clocks | None = None) -> list[float] | None:
+    """The row's numbers (a `MISSING` field as NaN, a timestamp as `clocks` read it), or None
+    where a field is neither. One pass that both tests and converts."""
     out = []
-    for f in fields:
+    clocks = clocks or Clocks()
+    known = len(clocks.origins)
+    for k, f in enumerate(fields):
         try:
             out.append(float(f if decimal == "." else f.replace(decimal, ".")))
         except ValueError:
-            if f.lower() not in MISSING:
+            if f.lower() in MISSING:
+                out.append(math.nan)
+                continue
+            stamp = clocks.seconds(k, f)
+            if stamp is None:
+                for column in list(clocks.origins)[known:]:  # a line that is no row sets no column's first timestamp
+                    del clocks.origins[column]
                 return None
-            out.append(math.nan)
+            out.append(stamp)
     return out
 
 
@@ -201,6 +249,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str | None = N
     )  # the last lines above the data: (line, text fields of its width, commented)
     values: list[list[float]] = []
     lines: list[int] = []
+    clocks = Clocks()
     with open(path, encoding=text_encoding(path), errors="replace", newline=None) as f:
         for lineno, raw in enumerate(f, start=1):
             if not raw.strip():
@@ -211,7 +260,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str | None = N
                     above.append((lineno, _text_of_width(split_fields(without_trailing_delimiter(note), delim), width, decimal), True))
                 continue
             fields = split_fields(without_trailing_delimiter(raw), delim)
-            row = row_values(fields, decimal) if len(fields) == width else None
+            row = row_values(fields, decimal, clocks) if len(fields) == width else None
             if not values:  # the preamble, the header and the units: up to the first numeric row of the data's width
                 if row is not None and not _all_missing(fields):
                     values.append(row)
@@ -220,7 +269,7 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str | None = N
                     above.append((lineno, _text_of_width(fields, width, decimal), False))
                 continue
             if row is None:
-                raise DataError(_bad_row(path, lineno, fields, width, decimal, lines[0]))
+                raise DataError(_bad_row(path, lineno, fields, width, decimal, lines[0], clocks))
             values.append(row)
             lines.append(lineno)
     if not values:
@@ -262,11 +311,17 @@ def _names(fields: list[str]) -> list[str]:
     return [h.strip().strip('"').strip("'") for h in fields]
 
 
-def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: str, first: int) -> str:
+def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: str, first: int, clocks: Clocks) -> str:
     """The one-line error of a line inside the data that is not a data row."""
     where = f"{path}: line {lineno}"
     if len(fields) != width:
         return f"{where} has {len(fields)} field(s), the data rows from line {first} have {width}: a ragged or broken row"
+    stamp = next(((k, f) for k, f in enumerate(fields) if TIMESTAMP.match(f) and clocks.seconds(k, f) is None), None)
+    if stamp is not None and stamp[0] in clocks.origins:
+        return (
+            f"{where}: field {stamp[0]} ({stamp[1]!r}) is a timestamp that cannot follow the column's first "
+            f"({clocks.origins[stamp[0]].isoformat()}): a time zone in one and not the other, or no date"
+        )
     bad = next((k, f) for k, f in enumerate(fields) if row_values([f], decimal) is None)
     return (
         f"{where}: field {bad[0]} ({bad[1]!r}) is not a number, inside the data that start at line {first} "

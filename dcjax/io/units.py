@@ -145,7 +145,7 @@ def named_columns(
         if c in headers:
             continue
         quantity = "time" if c == "t" else quantities.get(c)
-        names = {c.lower(), "time"} if c == "t" else {c.lower()}  # the time column: `t` or `time`, whatever the model
+        names = {c.lower(), "time", "timestamp"} if c == "t" else {c.lower()}  # the time column: `t`, `time` or `timestamp`
         near = []
         for h in headers:
             unit = stated.get(h)  # the units line's, else the name's

@@ -3,7 +3,7 @@ NumPy reference (`tests/reference.py`), through `dcjax.fit` and `dcjax.fit_each`
 
 Cells: on one recording, each feature alone ({plain, a local parameter, a sensor offset, an
 input delay, a fitted initial state, an initial state from the derivative of a measured
-position, some states compared (`measure`) while the others' columns give their initial values,
+position, the default start of that derivative (fitted: "initial-derived", the DC motor's), some states compared (`measure`) while the others' columns give their initial values,
 the delayed input held between samples (`zoh`) and held and delayed (`zoh-delay`)}); on two recordings of equal length (stacked), close lengths (padded into one scan) and
 far lengths (one scan each, as a long search keeps them; "far-padded": the cells' short search
 pads them into one, `joint_buckets`, ODE models), every feature at once ("all": local, offset, delay, fitted initial
@@ -127,6 +127,7 @@ FEATURES = (
     "delay",
     "initial-fit",
     "initial-derivative",
+    "initial-derived",
     "offset-smoothed",
     "measure",
     "zoh",
@@ -171,6 +172,7 @@ FAST = {  # every feature, every model and a joint fit at least once; the other 
     ("discrete", "one", "offset"),
     ("discrete", "one", "initial-derivative"),
     ("dc", "one", "initial-fit"),
+    ("dc", "one", "initial-derived"),
     ("sensor", "equal", "all"),
     ("sensor-discrete", "one", "offset"),
 }
@@ -194,8 +196,9 @@ def _inputs(case: Case, n: int, r: int) -> np.ndarray:
 def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
     """The recordings of a cell (from the reference) and the truth of every entry of its search vector."""
     case, f = CASES[model_key], parts(feature)
-    model = case.encoder if "initial-derivative" in f else case.model.measuring(case.measure) if "measure" in f else case.model
-    field = case.encoder_field if "initial-derivative" in f else case.field
+    encoder = "initial-derivative" in f or "initial-derived" in f
+    model = case.encoder if encoder else case.model.measuring(case.measure) if "measure" in f else case.model
+    field = case.encoder_field if encoder else case.field
     lengths = LENGTHS[lengths_key]
     truth: dict = {}
     recs = []
@@ -207,7 +210,7 @@ def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
         t = np.arange(n) * DT
         u = _inputs(case, n, r)
         y0 = ref.settle(case.steady, p, u[0], np.zeros(len(case.model.states)), 0.2)
-        if "initial-derivative" in f:
+        if encoder:
             y0 = np.append(y0, 0.0)  # the angle starts at 0
         delays = np.zeros(u.shape[1])
         if "delay" in f:
@@ -227,6 +230,8 @@ def data(model_key: str, lengths_key: str, feature: str) -> tuple[tuple, dict]:
             channels[case.offset] = channels[case.offset] + truth[f"offset_{case.offset}"]
         if "initial-fit" in f:
             truth[f"y0_{case.fitted}[{r}]" if len(lengths) > 1 else f"y0_{case.fitted}"] = float(y0[model.states.index(case.fitted)])
+        if "initial-derived" in f:  # the default: the speed, the angle's derivative and not recorded, starts fitted
+            truth[f"y0_{case.speed}[{r}]" if len(lengths) > 1 else f"y0_{case.speed}"] = float(y0[model.states.index(case.speed)])
         recorded = [c for c in model.inputs if c not in case.constants]
         channels |= {c: u[:, model.inputs.index(c)] for c in recorded}
         recs.append(dcjax.Recording(t=t, channels=channels, constants=case.constants or None, name=f"{model_key}-{lengths_key}-{r}"))
@@ -286,7 +291,7 @@ def start_parameters(model: dcjax.Model, truth: dict, feature: str, case: Case, 
 def fit_cell(model_key: str, lengths_key: str, feature: str) -> tuple[dcjax.FitResult, dict]:
     case = CASES[model_key]
     recs, truth = data(model_key, lengths_key, feature)
-    model = case.encoder if "initial-derivative" in parts(feature) else case.model
+    model = case.encoder if {"initial-derivative", "initial-derived"} & set(parts(feature)) else case.model
     params = start_parameters(model, truth, feature, case, len(recs))
     integrator = None if case.discrete else dcjax.RK4(substeps=4)
     res = dcjax.fit(list(recs), model, params, search=dcjax.Search(runs=1, budget=70, polish=True), observation=observation(case, feature, recs), integrator=integrator)  # fmt: skip
@@ -308,6 +313,7 @@ CELLS = [
         m == "pmsm" and (ln, f) in (("far", "all"), ("close", "all"), ("close", "all-smoothed"))
     )  # the DC cells hold those lengths; 25 s of the suite
     if "prediction" not in parts(f) or (m, ln) in PREDICTION_CELLS
+    if f != "initial-derived" or m == "dc"  # the default's start: one cell (the explicit fit and derivative starts have theirs)
 ]
 
 

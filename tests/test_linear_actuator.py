@@ -57,6 +57,14 @@ def test_lengths_speeds_and_forces_convert_to_si_and_a_subscript_is_no_unit(tmp_
     assert split_unit("omega_m") == ("omega_m", None) and split_unit("T_N") == ("T_N", None)
     assert unit_factor("F", "kN", "force") == 1e3 and unit_factor("v", "m/min", "speed") == pytest.approx(1 / 60, rel=1e-15)
 
+    class Misspelt(VoiceCoil):
+        quantities = {**VoiceCoil.quantities, "x": "length"}  # pyright: ignore[reportIncompatibleVariableOverride]
+
+    with pytest.raises(
+        dcjax.ConfigError, match=r"Model.quantities: 'length' \(channel x\) is not one of time, voltage, .*, force; leave x out"
+    ):
+        dcjax.load_recording(f, model=Misspelt(), units=MM)
+
 
 def test_a_model_file_without_its_class_names_the_one_it_defines(tmp_path):
     assert type(get_model(MODEL)).__name__ == "VoiceCoil"  # imported from the file

@@ -46,6 +46,15 @@ SI_UNITS = {
 }
 
 
+def checked_quantities(quantities: dict) -> dict:
+    """A model's `quantities` (channel -> quantity), each a quantity of `UNITS`; else a one-line
+    error (a misspelt "length" or "velocity" would leave its channel unconverted, silently)."""
+    for c, q in quantities.items():
+        if q not in UNITS:
+            raise ConfigError(f"Model.quantities: {q!r} (channel {c}) is not one of {', '.join(UNITS)}; leave {c} out to read it as it is")
+    return quantities
+
+
 class ColumnError(DataError):
     """A channel's column is not in the file (a one-line error naming it and the file's columns)."""
 
@@ -141,6 +150,7 @@ def named_columns(
     that matches in another unit (`t [ms]`), or two that match, are not taken: the second dict
     says how to map it (`select_channels` puts it in its error)."""
     out, why = {}, {}
+    checked_quantities(quantities)
     for c in wanted:
         if c in headers:
             continue
@@ -197,6 +207,7 @@ def select_channels(
     `optional` (a state that is not compared) are read the same way where the table has them.
     `why`: channel -> why a column that nearly names it was not taken (`named_columns`), for the
     error where it has none."""
+    checked_quantities(quantities)
     columns = dict(columns or {})
     units = dict(units or {})
     headers = list(table)

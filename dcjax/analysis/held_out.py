@@ -141,7 +141,7 @@ def initial_modes(result, initial) -> dict[str, Mode]:
     `"STATE=MODE,..."` / a dict for some (the others measured); one-line errors. `"auto"` (None):
     every state whose start the fit fitted estimated over the record."""
     states = result.model.states
-    if initial is None or (isinstance(initial, str) and initial.strip() == "auto"):
+    if _is_auto(initial):
         return dict.fromkeys(fitted_starts(result), ("estimate", None))
     if isinstance(initial, str) and "=" not in initial:
         mode = _mode(initial, "")
@@ -174,10 +174,15 @@ def initial_modes(result, initial) -> dict[str, Mode]:
     return {s: m for s, m in modes.items() if m != "measured"}
 
 
+def _is_auto(initial) -> bool:
+    """Whether `initial` is the default mode, "auto" (or None)."""
+    return initial is None or (isinstance(initial, str) and initial.strip() == "auto")
+
+
 def _mode_text(initial, modes: dict[str, Mode]) -> str:
     """How the starts were set: `initial` as given, `"auto"` as what it chose (`"measured"` where
     the fit fitted no start, else `"auto: S=estimate,..."`)."""
-    if initial is None or (isinstance(initial, str) and initial.strip() == "auto"):
+    if _is_auto(initial):
         return "measured" if not modes else "auto: " + ",".join(f"{s}=estimate" for s in modes)
     return initial if isinstance(initial, str) else ",".join(f"{s}={v}" for s, v in initial.items())
 

@@ -150,7 +150,6 @@ def named_columns(
     that matches in another unit (`t [ms]`), or two that match, are not taken: the second dict
     says how to map it (`select_channels` puts it in its error)."""
     out, why = {}, {}
-    checked_quantities(quantities)
     for c in wanted:
         if c in headers:
             continue

@@ -14,6 +14,7 @@ import dcjax
 from dcjax import Recording, datasets, load_recording, load_result
 from dcjax.analysis.checks import check_recording
 from dcjax.cli import main
+from dcjax.io.table import read_table
 from dcjax.io.units import named_columns
 
 RPM = 2 * np.pi / 60
@@ -117,6 +118,25 @@ def test_a_decimal_comma_is_detected_where_the_rows_are_numbers_only_with_it(tmp
     out = tmp_path / "fit"
     assert main(["fit", str(f), "--runs", "1", "--budget", "300", "--out", str(out)]) == 0
     assert json.loads((out / "result.json").read_text())["of"] < 1e-6  # SD1 read whole: the fit follows it
+
+
+@pytest.mark.parametrize("cut", ["0.05,220,0.3", "0.05,220,0.3,1.2e", "0.05;220"], ids=["a-field-short", "a-number-short", "mid-field"])
+def test_a_last_row_cut_short_is_named_not_read_as_the_shape_of_the_data(tmp_path, sd1, cut):
+    """A logger stopped mid-line (or a file copied while being written) ends in a row cut short:
+    the rows above it set the data's shape and the last line is the one-line error, which says so
+    (it read the last line's 3 fields as the shape and said "no column 't'; the columns are '0',
+    '1', '2'"). A file of one data row under a units line keeps its shape from that row."""
+    f = tmp_path / "cut.csv"
+    rows = [",".join(repr(float(sd1[c][k])) for c in ("t", "u_a", "i_a", "omega")) for k in range(50)]
+    f.write_text("t,u_a,i_a,omega\n" + "\n".join(rows) + f"\n{cut}\n# stopped\n")
+    with pytest.raises(dcjax.DataError, match=r"cut\.csv: line 52.*the file's last row, cut short") as e:
+        load_recording(f)
+    assert "no column" not in str(e.value)
+    assert main(["fit", str(f), "--runs", "1", "--budget", "100", "--out", str(tmp_path / "o")]) == 2
+    one = tmp_path / "one.csv"
+    one.write_text("t,u_a,i_a,omega\ns,V,A,rad/s\n0,220,0,0\n")
+    table = read_table(one)
+    assert list(table.columns) == ["t", "u_a", "i_a", "omega"] and table.units["omega"] == "rad/s"
 
 
 @pytest.mark.parametrize("encoding", ["utf-8-sig", "utf-16-le", "utf-16-be"])

@@ -4,7 +4,8 @@ an optional line of units, then data rows, every one of which is read or named i
 The delimiter is detected from the file's last lines (read first, so that a file that is not a
 table fails before it is read whole), and so is the decimal separator where it is not given: a
 comma where the rows are numbers only with it (`0,5;220`: a European spreadsheet's export), else
-a point. The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
+a point; a last line that splits otherwise than the two before it is taken for a row cut short
+(`data_lines`) and named as a broken row. The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
 (as Excel and Windows tools write them; `text_encoding`). The data are the rows of the last line's width from the
 first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
@@ -151,6 +152,23 @@ def detect_decimal(lines: list[str], delim: str | None) -> str:
     return "."
 
 
+def _shape(line: str) -> tuple:
+    """How `line` splits: per candidate delimiter, its number of fields and whether they are numbers."""
+    return tuple(
+        (len(f := split_fields(line, d)), row_values(f, ".") is not None or row_values(f, ",") is not None) for d in (";", "\t", ",", None)
+    )
+
+
+def data_lines(lines: list[str]) -> list[str]:
+    """`lines` up to the one that shows the data's shape: the last, unless the two before it
+    split alike and it does not (a last row cut short: a file still being written, a logger
+    stopped mid-line) as rows of numbers, which the reading then names as a broken row."""
+    if len(lines) >= 3 and _shape(lines[-2]) == _shape(lines[-3]) != _shape(lines[-1]):
+        if any(n >= 2 and numbers for n, numbers in _shape(lines[-2])):
+            return lines[:-1]
+    return lines
+
+
 def _detect(lines: list[str], decimal: str | None) -> tuple[str | None, str]:
     """(delimiter, decimal separator) of the last lines, the separator detected where None:
     the delimiter that splits them into numbers with a decimal point, else with a comma."""
@@ -223,6 +241,8 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str | None = N
     if decimal not in (None, ".", ","):
         raise ConfigError(f"decimal must be '.' or ',', got {decimal!r}")
     tail = _tail_lines(path)
+    if tail:
+        tail = data_lines(tail)
     if not tail:
         raise DataError(f"{path}: no data rows (the file is empty or holds comments only)")
     if delimiter is None:
@@ -311,11 +331,21 @@ def _names(fields: list[str]) -> list[str]:
     return [h.strip().strip('"').strip("'") for h in fields]
 
 
+CUT_SHORT = "the file's last row, cut short (a file still being written, or a logger stopped mid-line?)"
+
+
+def _is_last(path: Path, lineno: int) -> bool:
+    """Whether `lineno` is the file's last line that is neither blank nor a comment."""
+    with open(path, encoding=text_encoding(path), errors="replace", newline=None) as f:
+        return lineno == max((k for k, raw in enumerate(f, start=1) if raw.strip() and _comment(raw) is None), default=0)
+
+
 def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: str, first: int, clocks: Clocks) -> str:
     """The one-line error of a line inside the data that is not a data row."""
     where = f"{path}: line {lineno}"
+    cut = _is_last(path, lineno)
     if len(fields) != width:
-        return f"{where} has {len(fields)} field(s), the data rows from line {first} have {width}: a ragged or broken row"
+        return f"{where} has {len(fields)} field(s), the data rows from line {first} have {width}: {CUT_SHORT if cut else 'a ragged or broken row'}"
     stamp = next(((k, f) for k, f in enumerate(fields) if TIMESTAMP.match(f) and clocks.seconds(k, f) is None), None)
     if stamp is not None and stamp[0] in clocks.origins:
         return (
@@ -323,6 +353,8 @@ def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: st
             f"({clocks.origins[stamp[0]].isoformat()}): a time zone in one and not the other, or no date"
         )
     bad = next((k, f) for k, f in enumerate(fields) if row_values([f], decimal) is None)
+    if cut:
+        return f"{where}: field {bad[0]} ({bad[1]!r}) is not a number: {CUT_SHORT}"
     return (
         f"{where}: field {bad[0]} ({bad[1]!r}) is not a number, inside the data that start at line {first} "
         "(a row of text in the data is an error, not a new start; remove or fix the line)"

@@ -58,8 +58,9 @@ def test_daq_file_loads_to_the_same_recording(tmp_path, sd1, delimiter, decimal)
 
 
 def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
-    """A column of ISO 8601 timestamps (`2026-12-06 08:00:00.000100`, `...T...Z`) or times of day
-    (`23:59:59,9999` with a decimal comma) is the time in seconds after its first one, exact to the
+    """A column of ISO 8601 timestamps (`2026-12-06 08:00:00.000100`, `...T...Z`), day.month.year
+    ones (`06.12.2026 23:59:59,99`, `7.12.2026 0:00:00.01`) or times of day (`23:59:59,9999`
+    with a decimal comma, `9:59:59.99`) is the time in seconds after its first one, exact to the
     microsecond (it said "cannot detect the delimiter"), a time of day past midnight too; `timestamp`
     names the time column. Mixed time zones are a text cell: one line naming the line."""
     import datetime
@@ -81,6 +82,9 @@ def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
         written("iso.csv", "timestamp,u_a,i_a,omega", lambda s: s.isoformat(sep=" ", timespec="microseconds")),
         written("zulu.csv", "t,u_a,i_a,omega", lambda s: s.isoformat(timespec="microseconds") + "Z"),
         written("eu.csv", "time;u_a;i_a;omega", lambda s: (s - datetime.timedelta(days=1)).strftime("%H:%M:%S,%f"), sep=";", comma=True),
+        written("de.csv", "time;u_a;i_a;omega", lambda s: s.strftime("%d.%m.%Y %H:%M:%S,%f"), sep=";", comma=True),
+        written("de-short.csv", "time,u_a,i_a,omega", lambda s: f"{s.day}.{s.month}.{s.year} {s.hour}:{s:%M:%S.%f}"),
+        written("hour.csv", "time,u_a,i_a,omega", lambda s: f"{(s.hour + 10) % 24}:{s:%M:%S.%f}"),  # 9:59:59.99: one digit
     ):
         rec = load_recording(f)
         assert np.max(np.abs(rec.t - sd1.t[:n])) < 1e-15 and rec.t[0] == 0.0, f.name

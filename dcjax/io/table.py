@@ -11,7 +11,7 @@ first such numeric row on; after it, every line that is not a comment (`#`, `%`)
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
 is empty, `nan`, `NA`, `null` or `none` is NaN (a row of them only, as loggers write between
 bursts, is a row of NaN: `drop_nan` drops it). A timestamp (ISO 8601, `2026-12-06 08:00:00.0001`,
-`2026-12-06T08:00:00Z`, or a time of day `08:00:00,0001`) is read as the seconds after the
+`2026-12-06T08:00:00Z`; day.month.year `06.12.2026 08:00:00,0001`; or a time of day `8:00:00,0001`) is read as the seconds after the
 column's first one, exact to the microsecond (`Clocks`). The header is the nearest line of that width
 above the data (a commented one where there is no other); a line of units may stand between
 them. Units, from that line or a header such as `speed_rpm`, `I [mA]`, are kept per column
@@ -54,8 +54,10 @@ def split_fields(line: str, delim: str | None) -> list[str]:
 
 TIMESTAMP = re.compile(
     r"^\d{4}-\d{2}-\d{2}(?:[T ]\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?(?:Z|[+-]\d{2}(?::?\d{2})?)?$"  # ISO 8601 date and time
+    r"|^\d{1,2}\.\d{1,2}\.\d{4}(?:[T ]\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?$"  # day.month.year (a German logger's), and a time
     r"|^\d{1,2}:\d{2}:\d{2}(?:[.,]\d+)?$"  # a time of day
 )
+DOTTED_DATE = re.compile(r"^(\d{1,2})\.(\d{1,2})\.(\d{4})(?:[T ](.*))?$")
 DAY = datetime.date(2000, 1, 1)  # a time of day's date (its seconds are taken after the column's first)
 
 
@@ -75,11 +77,15 @@ class Clocks:
             return None
         t = text.replace(",", ".")
         try:
-            if "-" in t[:5]:
+            dotted = DOTTED_DATE.match(t)
+            if dotted:
+                day, month, year, clock = dotted.groups()
+                stamp = datetime.datetime.combine(datetime.date(int(year), int(month), int(day)), _time_of_day(clock or "00:00"))
+            elif "-" in t[:5]:
                 stamp = datetime.datetime.fromisoformat(t)
             else:
                 last = self.last.get(column)
-                stamp = datetime.datetime.combine(DAY if last is None else last.date(), datetime.time.fromisoformat(t))
+                stamp = datetime.datetime.combine(DAY if last is None else last.date(), _time_of_day(t))
                 if last is not None and last - stamp > datetime.timedelta(hours=12):
                     stamp += datetime.timedelta(days=1)
                 self.last[column] = stamp
@@ -87,6 +93,11 @@ class Clocks:
             return (stamp - origin).total_seconds()
         except (ValueError, TypeError):  # not a date (month 13), or one with a time zone among ones without
             return None
+
+
+def _time_of_day(text: str) -> datetime.time:
+    """`8:00:00.5` / `08:00` as a time (ISO 8601 wants two digits for the hour)."""
+    return datetime.time.fromisoformat(text.zfill(len(text) + 1) if text.index(":") == 1 else text)
 
 
 def row_values(fields: list[str], decimal: str, clocks: Clocks | None = None) -> list[float] | None:

@@ -62,7 +62,8 @@ def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
     ones (`06.12.2026 23:59:59,99`, `7.12.2026 0:00:00.01`) or times of day (`23:59:59,9999`
     with a decimal comma, `9:59:59.99`) is the time in seconds after its first one, exact to the
     microsecond (it said "cannot detect the delimiter"), a time of day past midnight too; `timestamp`
-    names the time column. Mixed time zones are a text cell: one line naming the line."""
+    names the time column. Mixed time zones are a text cell: one line naming the line; a slashed
+    date (month or day first?) is one line saying how to write it."""
     import datetime
 
     n = 200
@@ -94,6 +95,9 @@ def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
         dcjax.DataError, match=r"mixed.csv: line 10: field 0 \('2026-12-06T23:59:59.990700Z'\) is a timestamp that cannot follow"
     ):
         load_recording(mixed)
+    us = written("us.csv", "time,u_a,i_a,omega", lambda s: f"{s.month}/{s.day}/{s.year} {s:%H:%M:%S.%f}")
+    with pytest.raises(dcjax.DataError, match=r"us.csv: the last line holds a date with slashes \('12/7/2026'\).*ISO 8601"):
+        load_recording(us)
 
 
 @pytest.mark.slow  # a CLI fit; the fast run's DAQ test detects the comma too

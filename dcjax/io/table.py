@@ -57,6 +57,7 @@ TIMESTAMP = re.compile(
     r"|^\d{1,2}\.\d{1,2}\.\d{4}(?:[T ]\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?$"  # day.month.year (a German logger's), and a time
     r"|^\d{1,2}:\d{2}:\d{2}(?:[.,]\d+)?$"  # a time of day
 )
+SLASHED_DATE = re.compile(r"\b\d{1,2}/\d{1,2}/\d{2,4}\b")  # 12/6/2026: month or day first? not read
 DOTTED_DATE = re.compile(r"^(\d{1,2})\.(\d{1,2})\.(\d{4})(?:[T ](.*))?$")
 DAY = datetime.date(2000, 1, 1)  # a time of day's date (its seconds are taken after the column's first)
 
@@ -147,6 +148,12 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
         last = split_fields(lines[-1], d)
         if len(last) >= 2 and row_values(last, decimal) is not None and not _all_missing(last):
             return d
+    slashed = SLASHED_DATE.search(lines[-1])
+    if slashed:
+        raise DataError(
+            f"the last line holds a date with slashes ({slashed.group(0)!r}), which does not say whether the month or the day "
+            "comes first: write the dates as ISO 8601 (2026-12-06 08:00:00) or day.month.year (06.12.2026 08:00:00)"
+        )
     raise DataError(
         "cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or whitespace; give delimiter="
     )

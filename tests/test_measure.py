@@ -51,10 +51,23 @@ def test_a_column_of_a_state_not_compared_gives_its_initial_value(tmp_path):
     bare = load_recording(tmp_path / "without.csv", model=speed)  # the speed alone is enough
     assert "i_a" not in bare.channels
     assert dcjax.Observation(measure=("omega",)).initial_values(speed, bare)["i_a"] == 0.0
-    with pytest.raises(ValueError, match="no column 'i_a' for i_a"):
+    with pytest.raises(
+        ValueError, match=r"no column 'i_a' for i_a.*does not log i_a, compare the states it logs alone: measure=\('omega',\)"
+    ):
         load_recording(tmp_path / "without.csv")  # the paper's motor compares the current
     with pytest.raises(ValueError, match="no column 'I' for i_a"):
         load_recording(tmp_path / "without.csv", model=speed, columns={"i_a": "I"})  # a mapped column must exist
+
+
+def test_a_speed_only_log_is_told_of_measure_on_the_command_line(tmp_path, capsys):
+    """The paper's motor logged without its current: the command line's error says `--measure omega`
+    (it said only `--columns i_a=NAME`, a column the file does not have)."""
+    n = 50
+    t = np.arange(n) * 1e-3
+    _csv(tmp_path / "speed.csv", {"t": t, "u_a": np.full(n, 100.0), "omega": 50.0 + t})
+    assert cli.main(["fit", str(tmp_path / "speed.csv"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and err.endswith("compare the states it logs alone: --measure omega)"), err
 
 
 def test_measure_names_are_checked_in_one_line(capsys):

@@ -6,7 +6,7 @@ table fails before it is read whole), and so is the decimal separator where it i
 comma where the rows are numbers only with it (`0,5;220`: a European spreadsheet's export), else
 a point; a last line that splits otherwise than the two before it is taken for a row cut short
 (`data_lines`) and named as a broken row. The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
-(as Excel and Windows tools write them; `text_encoding`). The data are the rows of the last line's width from the
+(as Excel and Windows tools write them; `text_encoding`). The data are the rows of the last full row's width from the
 first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
 is empty, `nan`, `NA`, `null` or `none` is NaN (a row of them only, as loggers write between

@@ -241,7 +241,7 @@ def select_channels(
             if c in inputs:  # an input may be constant in a recording
                 hint = f"; or, as the model's inputs ({', '.join(inputs)}) may be, a constant: constants={{{c!r}: V}} or the sidecar's 'constants'"
             logged = [s for s in needed if s not in inputs and s != c and columns.get(s, s) in table]
-            if c not in inputs and logged:  # a compared state the file does not log: a speed-only log of a motor
+            if c in needed and c not in inputs and logged:  # a compared state the file does not log: a speed-only log of a motor
                 hint = f", or, where the file does not log {c}, compare the states it logs alone: measure={tuple(logged)!r}"
             if c in (why or {}) and c not in columns:
                 raise ColumnError(f"{where}no column {src!r} for {c}; {why[c]}")  # pyright: ignore[reportOptionalSubscript]

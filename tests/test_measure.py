@@ -68,6 +68,9 @@ def test_a_speed_only_log_is_told_of_measure_on_the_command_line(tmp_path, capsy
     assert cli.main(["fit", str(tmp_path / "speed.csv"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and err.endswith("compare the states it logs alone: --measure omega)"), err
+    _csv(tmp_path / "untimed.csv", {"u_a": np.full(n, 100.0), "i_a": np.full(n, 0.5), "omega": 50.0 + t})
+    assert cli.main(["fit", str(tmp_path / "untimed.csv"), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.strip().endswith("(map them with --columns t=NAME or give the sample time with --dt or --rate)")
 
 
 def test_measure_names_are_checked_in_one_line(capsys):

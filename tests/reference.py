@@ -72,6 +72,11 @@ def voice_coil_field(p, u, y):
     return np.array([(u[0] - p["R"] * i - p["Kf"] * v) / p["L"], (p["Kf"] * i - p["c"] * v - p["k"] * x) / p["m"], v])
 
 
+def heated_block_field(p, u, y):
+    """A heated block in a room: C dT/dt = k P - (T - Ta) / Rth."""
+    return np.array([(p["k"] * u[0] - (y[0] - p["Ta"]) / p["Rth"]) / p["C"]])
+
+
 def abs_speed_sensor(states):
     """A pulse counter on a pulley of ratio 0.5 that cannot see the sign: y = |0.5 w|."""
     return np.abs(0.5 * states[:, 1])

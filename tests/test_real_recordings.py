@@ -115,6 +115,18 @@ def test_initial_estimate_is_linear_least_squares_of_the_regression(sd1):
     norm = np.linalg.norm(A, axis=0)
     ref = np.linalg.lstsq(A / norm, rhs, rcond=None)[0] / norm
     np.testing.assert_allclose(x, ref, rtol=1e-6)
+    # a known cm (a fit's --fix) held in the estimate: its terms on the right-hand side
+    cm = 0.9 * float(ref[2])
+    held = initial_estimate(sd1, cutoff=2000.0, border=5, known={"cm": cm})
+    x = np.array([held[n].value for n in dcjax.DC.names])
+    w8, w9 = 1 / np.sqrt(np.mean((x[1] * di) ** 2)), 1 / np.sqrt(np.mean((x[3] * dw) ** 2))
+    free = [0, 1, 3, 4, 5, 6]
+    A = np.vstack([w8 * e8, w9 * e9])
+    rhs = np.concatenate([w8 * u, z]) - cm * A[:, 2]
+    norm = np.linalg.norm(A[:, free], axis=0)
+    ref = np.linalg.lstsq(A[:, free] / norm, rhs, rcond=None)[0] / norm
+    assert x[2] == cm and held["cm"].stderr == 0.0
+    np.testing.assert_allclose(x[free], ref, rtol=1e-6)
 
 
 def test_initial_estimate_refuses_an_unmeasured_state(sd1):
@@ -136,6 +148,12 @@ def test_initial_estimate_of_a_model_without_regression_uses_lm(sd1):
     truth = datasets.true_params("SD1")
     for n in ("Ra", "La", "cm", "J"):
         assert est[n].value == pytest.approx(truth[n], rel=0.05), n
+    held = initial_estimate(sd1, NoRegression(), cutoff=2000.0, known={"cm": truth["cm"]})  # LM with cm held at its value
+    assert held["cm"].value == truth["cm"] and held["cm"].stderr == 0.0
+    for n in ("Ra", "La", "J"):
+        assert held[n].value == pytest.approx(truth[n], rel=0.05), n
+    with pytest.raises(ValueError, match="known"):
+        initial_estimate(sd1, known={"cmm": 0.5})
 
 
 def test_bounds_auto_holds_the_preset_and_the_estimate(sd1):

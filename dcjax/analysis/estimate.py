@@ -25,6 +25,7 @@ automatic search ranges (`auto_range`)."""
 
 import math
 import warnings
+from collections.abc import Mapping
 
 import jax
 import jax.numpy as jnp
@@ -157,21 +158,27 @@ def _scaled_lstsq(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return sol / norm, cov
 
 
-def _linear_estimate(model: Model, blocks, q: int):
-    """Weighted linear least squares over the equations; returns (theta, stderr, scale_upper)."""
+def _linear_estimate(model: Model, blocks, q: int, known: Mapping[str, float] | None = None):
+    """Weighted linear least squares over the equations, the `known` parameters' terms moved to
+    the right-hand side; returns (theta, stderr, scale_upper)."""
     names = model.names
     P = len(names)
+    fixed = {names.index(n): float(v) for n, v in (known or {}).items()}
     mats, rhss, masses = [], [], []
     for cols, rhs, mass in blocks:
         model.check_names(cols, "regression column")
         A = np.zeros((len(rhs), P))
         for k, c in cols.items():
             A[:, names.index(k)] = np.broadcast_to(c, rhs.shape)
+        rhs = np.asarray(rhs, float) - sum((v * A[:, k] for k, v in fixed.items()), np.zeros(len(rhs)))
+        A[:, list(fixed)] = 0.0
         mats.append(np.column_stack([_decimated(A[:, k], q) for k in range(P)]))
-        rhss.append(_decimated(np.asarray(rhs, float), q))
+        rhss.append(_decimated(rhs, q))
         masses.append(names.index(mass) if mass is not None else None)
     seen = np.flatnonzero(np.any(np.concatenate(mats) != 0, axis=0))
     theta = np.full(P, np.nan)
+    for k, v in fixed.items():
+        theta[k] = v
     weights = [1.0] * len(mats)
     for _ in range(6):  # re-weight by each equation's inertial term at the current estimate
         A = np.concatenate([w * M[:, seen] for w, M in zip(weights, mats)])
@@ -190,6 +197,7 @@ def _linear_estimate(model: Model, blocks, q: int):
     theta[seen], cov = _scaled_lstsq(A, b)
     stderr = np.full(P, np.nan)
     stderr[seen] = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    stderr[list(fixed)] = 0.0
     # A parameter's term cannot outweigh its equation: |theta_k| max|A_k| <= the equation's
     # largest term (peak torque over peak speed for Tlb, over its square for Tlc).
     upper = np.full(P, np.inf)
@@ -207,9 +215,10 @@ def _linear_estimate(model: Model, blocks, q: int):
 
 def _derivative_residual(model: Model, phi, data):
     """(dy/dt - f(theta, y, u)) / rms(dy/dt), stacked over the states; theta = phi^2 where
-    non-negative. A discrete-time model's rate is (update(c, u, y, dt) - y) / dt at the rows' dt."""
-    Y, U, DY, scale, nn, dt = data
-    p = model.as_dict(jnp.where(nn, phi * phi, phi))
+    non-negative, the known ones' values where `known` marks them. A discrete-time model's rate
+    is (update(c, u, y, dt) - y) / dt at the rows' dt."""
+    Y, U, DY, scale, nn, dt, known, values = data
+    p = model.as_dict(jnp.where(known, values, jnp.where(nn, phi * phi, phi)))
     c = model.coefficients(p)
     if isinstance(model, DiscreteModel):
         f = tuple((a - b) / dt for a, b in zip(model.update(c, U, Y, dt), Y))
@@ -234,8 +243,8 @@ def _lm_linearised(model: Model, phi, data):
     """(theta, the derivative residual, its Jacobian in theta) at LM's solution `phi` (theta =
     phi^2 where non-negative), compiled once per model and data shape: traced op by op they took
     ~0.02 s an estimate (476 servo logs' first estimates spent 100 s on them)."""
-    nonneg = data[4]
-    theta = jnp.where(nonneg, phi * phi, phi)
+    nonneg, known, values = data[4], data[6], data[7]
+    theta = jnp.where(known, values, jnp.where(nonneg, phi * phi, phi))
     jac = jax.jacfwd(lambda t: _derivative_residual(model, jnp.where(nonneg, jnp.sqrt(jnp.abs(t)), t), data))(theta)
     return theta, _derivative_residual(model, phi, data), jac
 
@@ -247,10 +256,14 @@ def _lm_rows(n: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, LM_ROWS)).astype(int))
 
 
-def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float, seed: np.ndarray | None = None):
+def _lm_estimate(
+    model: Model, y, dy, u, q: int, start: Parameters, dt: float, seed: np.ndarray | None = None, known: Mapping[str, float] | None = None
+):
     """Levenberg–Marquardt on the normalized derivative residual (models not linear in theta);
-    from `seed` alone where given (another cutoff's estimate), else from many starts."""
+    from `seed` alone where given (another cutoff's estimate), else from many starts; the
+    `known` parameters held at their values."""
     names = model.names
+    fixed = np.array([n in (known or {}) for n in names])
     lo, hi = start.lower, start.upper
     nonneg = np.array([p.positive for p in start.values()]) | (np.isfinite(lo) & (lo >= 0))
     # LM from one start finds local minima: start from the given values, the ranges' midpoints and
@@ -271,12 +284,15 @@ def _lm_estimate(model: Model, y, dy, u, q: int, start: Parameters, dt: float, s
         tuple(jnp.asarray(1.0 / max(float(jnp.sqrt(jnp.mean(d * d))), 1e-300)) for d in DY),
         jnp.asarray(nonneg),
         jnp.asarray(dt * q, jnp.float64),  # the rows' sample interval (a discrete-time model's update takes it)
+        jnp.asarray(fixed),
+        jnp.asarray([float((known or {}).get(n, 0.0)) for n in names], jnp.float64),
     )
     phis, cost = _lm_solve(model, jnp.asarray(phi0), data)
     cost = np.where(np.isfinite(np.asarray(cost)), np.asarray(cost), np.inf)
     x, r, J = map(np.asarray, _lm_linearised(model, phis[int(np.argmin(cost))], data))
-    s2 = float(r @ r) / max(1, r.size - len(names))
-    stderr = np.sqrt(np.maximum(np.diag(np.linalg.pinv(J.T @ J)) * s2, 0.0))
+    J = np.where(fixed[None, :], 0.0, J)
+    s2 = float(r @ r) / max(1, r.size - len(names) + int(fixed.sum()))
+    stderr = np.where(fixed, 0.0, np.sqrt(np.maximum(np.diag(np.linalg.pinv(J.T @ J)) * s2, 0.0)))
     return x, stderr, np.full(len(names), np.inf)
 
 
@@ -340,6 +356,7 @@ def initial_estimate(
     border: int | None = None,
     decimate: int = 1,
     start: Parameters | None = None,
+    known: Mapping[str, float] | None = None,
 ) -> Parameters:
     """Equation-error least squares estimate of `model`'s parameters from `recording` (module
     docstring). `cutoff` (Hz) and `order` of the zero-phase Butterworth filter; by default the
@@ -347,8 +364,12 @@ def initial_estimate(
     simulation fits the recording best (OF, eq. 24) is kept. `border` samples dropped at each end
     (default the filter's time scale, fs / cutoff); `decimate` the regression rows (scipy.signal.decimate, zero phase) as IDIM-LS
     does. `start`: the LM start and sign conventions for a model without `regression` (default
-    the model's preset). Returns `Parameters`: value, stderr, and `min`/`max` by `auto_range`."""
+    the model's preset). `known`: parameters whose values are known (a fit's fixed ones), held at
+    them: a direction the data do not see is then pinned as the fit pins it. Returns
+    `Parameters`: value, stderr, and `min`/`max` by `auto_range`."""
     m = get_model(model)
+    known = dict(known or {})
+    m.check_names(known, "known")
     if not isinstance(recording, Recording):
         raise ConfigError("recording must be a dcjax.Recording")
     scored = recording
@@ -376,8 +397,8 @@ def initial_estimate(
         y, dy, u, q = _rows(recording, m, c, order, b, decimate)
         blocks = m.regression(y, dy, u) if form == "own" else linear_regression(m, y, dy, u, 1.0 / fs, base, masses) if masses else None
         if blocks is not None:
-            return _linear_estimate(m, blocks, q)
-        est = _lm_estimate(m, y, dy, u, q, base, 1.0 / fs, seeds[0] if seeds else None)
+            return _linear_estimate(m, blocks, q, known)
+        est = _lm_estimate(m, y, dy, u, q, base, 1.0 / fs, seeds[0] if seeds else None, known)
         seeds.append(est[0])
         return est
 
@@ -427,21 +448,22 @@ def estimated_recordings(recordings: list[Recording]) -> list[Recording]:
     return [recordings[k] for k in np.unique(np.round(np.linspace(0, n - 1, AUTO_RECORDINGS)).astype(int))]
 
 
-def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | None = None):
+def auto_bounds(recordings: "Recording | list[Recording]", model: Model | str | None = None, known: Mapping[str, float] | None = None):
     """`bounds="auto"`: (Bounds, start values, the estimates) from `initial_estimate` of the
     recordings (`estimated_recordings`: of a joint fit of more than `AUTO_RECORDINGS`, that many
     spread over it) — the union of their ranges, and the first recording's values as start
     values (they seed the initial population). The recordings of a joint fit share the model's
     parameters and each range reaches a decade either side of its estimate, while a nonlinear
     model's estimate is a Levenberg–Marquardt from 64 starts (~0.3 s a servo log: 476 logs
-    took 4 minutes of a command-line fit)."""
+    took 4 minutes of a command-line fit). `known`: parameters held at their values in the
+    estimates (`initial_estimate`)."""
 
     m = get_model(model)
     recs = recordings if isinstance(recordings, (list, tuple)) else [recordings]
     ests = []
     for r in estimated_recordings(list(recs)):
         try:
-            ests.append(initial_estimate(r, m))
+            ests.append(initial_estimate(r, m, known=known))
         except Exception as e:  # a state neither measured nor a derivative, a singular regression: the preset, said once
             if not m.preset_names:
                 raise ConfigError(f"bounds auto: {e}") from None

@@ -9,6 +9,8 @@ from ..numbers import to_uncertainty
 AGREEING_RUNS = 2.0  # runs whose OF is within this factor of the best one found the same optimum
 FLOAT_PRECISION = 1e-12  # relative: no fit pins a parameter closer than this in float64
 ONE_RUN_PRECISION = 1e-4  # relative, nothing else known: six significant digits
+LOOSE_SPREAD = 0.05  # relative spread of a parameter over runs that fit as well from which the fit says the data may not pin it
+RANGE_SHARE = 0.01  # ... and by this share of its search range
 
 
 def fit_percent(measured: np.ndarray, simulated: np.ndarray) -> float:
@@ -59,6 +61,32 @@ def value_uncertainties(result) -> dict[str, tuple[float, str]]:
         else:
             out[n] = (ONE_RUN_PRECISION * v, "one run")
     return out
+
+
+def loose_parameters(result) -> tuple[int, dict[str, float]]:
+    """(how many runs ended at an optimum that fits as well as the best, the free parameters whose
+    values spread across them by more than `LOOSE_SPREAD` (standard deviation over |mean|) and by
+    more than `RANGE_SHARE` of the search range (a value near 0 spreads widely by the first)). Such
+    runs: OF within `AGREEING_RUNS` of the best, each converged by the search's stopping rule or
+    polished (a run stopped short by its budget says nothing here), at least 2. Runs that fit the
+    data as well with other values are what a direction the data do not determine leaves (a
+    heated block's k/C and Rth*C, not C, k, Rth)."""
+    of = np.asarray(result.run_of, dtype=float)
+    if not np.isfinite(of).any():
+        return 0, {}
+    ended = np.full(of.shape, result.polish is not None) | (
+        np.zeros(of.shape, bool) if result.converged is None else np.asarray(result.converged, bool)
+    )
+    agree = ended & np.isfinite(of) & (of <= AGREEING_RUNS * np.nanmin(of) + 1e-300)
+    if agree.sum() < 2:
+        return int(agree.sum()), {}
+    x = np.asarray(result.run_params, dtype=float)[agree]
+    sd = np.std(x, axis=0, ddof=1)
+    rel = sd / np.maximum(np.abs(np.mean(x, axis=0)), 1e-300)
+    width = np.asarray(result.bounds.upper, float) - np.asarray(result.bounds.lower, float)
+    seen = ~np.isfinite(width) | (sd > RANGE_SHARE * np.where(np.isfinite(width), width, 0.0))  # a value near 0: a share of its range
+    loose = {n: float(rel[k]) for k, n in enumerate(result.names) if n not in result.fixed and rel[k] > LOOSE_SPREAD and seen[k]}
+    return int(agree.sum()), loose
 
 
 def shown_values(result) -> dict[str, str]:

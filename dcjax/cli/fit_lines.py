@@ -2,15 +2,17 @@
 analyses, hints for a parameter at its bound and the data checks."""
 
 import dataclasses
+import shlex
 from pathlib import Path
 
 import numpy as np
 
 from ..analysis.checks import fit_findings
-from ..analysis.report import digits_note, predictor_summary, shown_values, stop_summary, value_uncertainties
+from ..analysis.report import digits_note, loose_parameters, predictor_summary, shown_values, stop_summary, value_uncertainties
 from ..fitting.result import FitResult
 from ..fitting.vector import base_name, unit_of
 from ..io.recording import Recording
+from ..models import MODELS, model_spec
 from .flags import as_flags
 
 
@@ -39,6 +41,20 @@ def bound_hints(result: FitResult) -> list[str]:
                 f"hint: {n} ended at its upper bound {hi[k]:g}: widen it, e.g. --bound {n}={lo[k]:g}:{hi[k] * 10:g} (or --bounds auto)"
             )
     return out
+
+
+def loose_lines(result: FitResult, out: Path) -> list[str]:
+    """A note where the runs that agree in OF spread in some parameters (`loose_parameters`)."""
+    equal, loose = loose_parameters(result)
+    if not loose:
+        return []
+    spread = ", ".join(f"{n} by {100 * v:.2g} %" for n, v in loose.items())
+    spec = model_spec(result.model)
+    command = shlex.join(["dcjax", "report", str(out / "result.json"), "--uncertainty", *(["--model", spec] if spec not in MODELS else [])])
+    return [
+        f"note: {equal} converged runs fit as well as the best (OF within 2x) with values that spread: {spread}; the data may not determine "
+        f"{'it' if len(loose) == 1 else 'them each'} alone (`{command}` names what they do determine)"
+    ]
 
 
 def _truth(recs: list[Recording], names: tuple[str, ...]) -> dict | None:
@@ -121,6 +137,9 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
         )
     if result.uncertainties is not None:
         print(result.uncertainties.table())
+    else:
+        for line in loose_lines(result, out):
+            print(line)
     for line in bound_hints(result):
         print(line)
     named = lambda r, g: g if len(recs) == 1 else dataclasses.replace(g, message=f"{r.name}: {g.message}")  # a joint fit: whose

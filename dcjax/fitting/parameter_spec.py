@@ -94,8 +94,8 @@ class ParameterSpec:
             if preset.lower() == "auto" and set(model.names) <= set(given) | set(known):  # every range given or value known
                 ranges = {**known, **given}
                 bounds = Bounds([ranges[n][0] for n in model.names], [ranges[n][1] for n in model.names], model.names)
-            elif preset.lower() == "auto":
-                bounds, start, _ = auto_bounds(recordings, model)
+            elif preset.lower() == "auto":  # the known values held in the estimate: they pin what the data may not
+                bounds, start, _ = auto_bounds(recordings, model, {n: lo for n, (lo, _) in known.items()})
             else:
                 bounds = resolve_bounds(model, preset)
         return resolve_bounds(model, bounds, given), start

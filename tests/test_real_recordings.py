@@ -173,7 +173,7 @@ def test_bounds_auto_of_a_long_joint_fit_estimates_a_spread_few(sd1, monkeypatch
     recs = [sd1.replace(name=f"r{k}", u_a=sd1.u_a * (1.0 + 0.01 * k)) for k in range(19)]
     seen = []
     real = estimate.initial_estimate
-    monkeypatch.setattr(estimate, "initial_estimate", lambda r, m: seen.append(r.name) or real(r, m))
+    monkeypatch.setattr(estimate, "initial_estimate", lambda r, m, known=None: seen.append(r.name) or real(r, m, known=known))
     bounds, start, ests = auto_bounds(recs)
     picked = [f"r{k}" for k in np.unique(np.round(np.linspace(0, 18, estimate.AUTO_RECORDINGS)).astype(int))]
     assert seen == picked and len(seen) == estimate.AUTO_RECORDINGS and seen[0] == "r0" and seen[-1] == "r18"

@@ -4,6 +4,7 @@
 of the runs' spread and said nothing; the null direction showed only under `report --uncertainty`."""
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -11,6 +12,8 @@ import reference as ref
 
 import dcjax
 from dcjax import cli
+from dcjax.analysis.report import loose_parameters
+from dcjax.models.bounds import Bounds
 
 MODEL = str(Path(__file__).with_name("heated_block.py"))
 TRUTH = {"C": 800.0, "k": 0.9, "Rth": 0.5, "Ta": 294.45}
@@ -45,3 +48,23 @@ def test_runs_that_fit_as_well_with_other_values_are_named(tmp_path, capsys):
     # runs stopped short by a small budget say nothing of the data (SD1: far apart, unconverged)
     assert cli.main(["fit", "SD1", "--runs", "3", "--budget", "700", "--plots", "none", "--out", str(tmp_path / "short")]) == 0
     assert "converged runs fit" not in capsys.readouterr().out
+
+
+def test_the_rule_takes_runs_that_ended_and_values_that_spread_past_their_range_share():
+    """`loose_parameters` on runs given by hand: only runs that ended (converged or polished)
+    within 2x of the best OF count; a value spreads by > 5 % of its mean and > 1 % of its range
+    (a start near 0 that moves by a hair of its range is not named); a fixed value never."""
+    names = ("a", "b", "c", "d")
+    params = np.array([[1.0, 10.0, 1e-4, 5.0], [2.0, 10.1, -1e-4, 5.0], [1.5, 9.9, 0.0, 5.0], [9.0, 1.0, 1.0, 5.0]])
+
+    def runs(of, converged=None, polish=None):
+        bounds = Bounds([0.0, 0.0, -1.0, 5.0], [10.0, 100.0, 1.0, 5.0], names)
+        return SimpleNamespace(run_of=np.array(of), run_params=params, names=names, fixed={"d": 5.0}, bounds=bounds,
+                               converged=converged, polish=polish)  # fmt: skip
+
+    ended = np.array([True, True, True, True])
+    assert loose_parameters(runs([1.0, 1.5, 1.9, 50.0], ended)) == (3, {"a": pytest.approx(1 / 3)})  # the 4th is 50x worse
+    assert loose_parameters(runs([1.0, 1.5, 1.9, 50.0])) == (0, {})  # budget spent, no polish: they say nothing
+    assert loose_parameters(runs([1.0, 1.5, 1.9, 50.0], polish={"steps": 1}))[1].keys() == {"a"}  # polished runs ended
+    assert loose_parameters(runs([1.0, 3.0, 3.0, 3.0], ended)) == (1, {})  # one run alone
+    assert loose_parameters(runs([np.nan, np.inf, np.nan, np.inf], ended)) == (0, {})

@@ -8,7 +8,15 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import fit_findings
-from ..analysis.report import digits_note, loose_parameters, predictor_summary, shown_values, stop_summary, value_uncertainties
+from ..analysis.report import (
+    AGREEING_RUNS,
+    digits_note,
+    loose_parameters,
+    predictor_summary,
+    shown_values,
+    stop_summary,
+    value_uncertainties,
+)
 from ..fitting.result import FitResult
 from ..fitting.vector import base_name, unit_of
 from ..io.recording import Recording
@@ -44,7 +52,7 @@ def bound_hints(result: FitResult) -> list[str]:
 
 
 def loose_lines(result: FitResult, out: Path) -> list[str]:
-    """A note where the runs that agree in OF spread in some parameters (`loose_parameters`)."""
+    """A note where the runs that fit as well as the best spread in some parameters (`loose_parameters`)."""
     equal, loose = loose_parameters(result)
     if not loose:
         return []
@@ -52,7 +60,7 @@ def loose_lines(result: FitResult, out: Path) -> list[str]:
     spec = model_spec(result.model)
     command = shlex.join(["dcjax", "report", str(out / "result.json"), "--uncertainty", *(["--model", spec] if spec not in MODELS else [])])
     return [
-        f"note: {equal} converged runs fit as well as the best (OF within 2x) with values that spread: {spread}; the data may not determine "
+        f"note: {equal} converged runs fit as well as the best (OF within {AGREEING_RUNS:g}x) with values that spread: {spread}; the data may not determine "
         f"{'it' if len(loose) == 1 else 'them each'} alone (`{command}` names what they do determine)"
     ]
 

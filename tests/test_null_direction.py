@@ -36,6 +36,8 @@ def test_runs_that_fit_as_well_with_other_values_are_named(tmp_path, capsys):
     note = [line for line in capsys.readouterr().out.splitlines() if "converged runs fit as well as the best" in line]
     assert len(note) == 1 and "C by" in note[0] and "k by" in note[0] and "Ta" not in note[0], note
     assert f"--uncertainty --model {MODEL}:HeatedBlock` names what they do determine" in note[0]  # a file model: said how to load it
+    assert cli.main(["report", str(tmp_path / "free" / "result.json"), "--model", f"{MODEL}:HeatedBlock"]) == 0
+    assert "spread: C by" in capsys.readouterr().out  # the report says it too, and what to run
     assert cli.main(["report", str(tmp_path / "free" / "result.json"), "--uncertainty", "--model", f"{MODEL}:HeatedBlock"]) == 0
     assert "null direction: C, k, Rth are not determined" in capsys.readouterr().out
     # k known: C and Rth are determined, the runs agree, nothing to say; the automatic ranges come

@@ -89,6 +89,18 @@ def loose_parameters(result) -> tuple[int, dict[str, float]]:
     return int(agree.sum()), loose
 
 
+def loose_text(result) -> str | None:
+    """`loose_parameters` in words (without what to run next), or None where there is nothing to say."""
+    equal, loose = loose_parameters(result)
+    if not loose:
+        return None
+    spread = ", ".join(f"{n} by {100 * v:.2g} %" for n, v in loose.items())
+    return (
+        f"{equal} converged runs fit as well as the best (OF within {AGREEING_RUNS:g}x) with values that spread: {spread}; "
+        f"the data may not determine {'it' if len(loose) == 1 else 'them each'} alone"
+    )
+
+
 def shown_values(result) -> dict[str, str]:
     """Every parameter's value as printed: to the digits `value_uncertainties` justifies; a fixed
     one as given (its shortest text)."""
@@ -246,6 +258,9 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
     lines.append(f"    ({digits_note(result)})")
     if u is None:
         lines.append("    (standard errors: result.uncertainty())")
+        loose = loose_text(result)
+        if loose:
+            lines.append(f"    ({loose}: result.uncertainty() names what they do determine)")
     else:
         lines += [f"    {line}" for line in u.combination_lines()]
         if getattr(u, "approximation", ""):

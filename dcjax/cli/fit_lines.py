@@ -9,9 +9,8 @@ import numpy as np
 
 from ..analysis.checks import fit_findings
 from ..analysis.report import (
-    AGREEING_RUNS,
     digits_note,
-    loose_parameters,
+    loose_text,
     predictor_summary,
     shown_values,
     stop_summary,
@@ -52,17 +51,13 @@ def bound_hints(result: FitResult) -> list[str]:
 
 
 def loose_lines(result: FitResult, out: Path) -> list[str]:
-    """A note where the runs that fit as well as the best spread in some parameters (`loose_parameters`)."""
-    equal, loose = loose_parameters(result)
-    if not loose:
+    """A note where the runs that fit as well as the best spread in some parameters (`loose_text`)."""
+    loose = loose_text(result)
+    if loose is None:
         return []
-    spread = ", ".join(f"{n} by {100 * v:.2g} %" for n, v in loose.items())
     spec = model_spec(result.model)
     command = shlex.join(["dcjax", "report", str(out / "result.json"), "--uncertainty", *(["--model", spec] if spec not in MODELS else [])])
-    return [
-        f"note: {equal} converged runs fit as well as the best (OF within {AGREEING_RUNS:g}x) with values that spread: {spread}; the data may not determine "
-        f"{'it' if len(loose) == 1 else 'them each'} alone (`{command}` names what they do determine)"
-    ]
+    return [f"note: {loose} (`{command}` names what they do determine)"]
 
 
 def _truth(recs: list[Recording], names: tuple[str, ...]) -> dict | None:

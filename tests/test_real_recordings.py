@@ -154,6 +154,8 @@ def test_initial_estimate_of_a_model_without_regression_uses_lm(sd1):
         assert held[n].value == pytest.approx(truth[n], rel=0.05), n
     with pytest.raises(ValueError, match="known"):
         initial_estimate(sd1, known={"cmm": 0.5})
+    with pytest.raises(ValueError, match=r"^known: cm=nan: a known value must be a finite number$"):
+        initial_estimate(sd1, known={"cm": float("nan")})
 
 
 def test_bounds_auto_holds_the_preset_and_the_estimate(sd1):

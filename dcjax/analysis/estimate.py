@@ -370,6 +370,9 @@ def initial_estimate(
     m = get_model(model)
     known = dict(known or {})
     m.check_names(known, "known")
+    bad = {n: v for n, v in known.items() if not (isinstance(v, (int, float, np.number)) and not isinstance(v, bool) and math.isfinite(v))}
+    if bad:
+        raise ConfigError(f"known: {', '.join(f'{n}={v!r}' for n, v in bad.items())}: a known value must be a finite number")
     if not isinstance(recording, Recording):
         raise ConfigError("recording must be a dcjax.Recording")
     scored = recording

@@ -16,7 +16,9 @@ derivatives taken by central differences, and the model's state equations fitted
   log-uniform over six decades, fixed seed), at the other cutoffs from that answer.
 
 A state the recording lacks but that is the derivative of a measured one (`Model.derivative_of`,
-velocity of a measured position) is obtained by the same filtered differentiation. On the EMPS
+velocity of a measured position) is obtained by the same filtered differentiation; one whose rate
+no parameter enters and the recorded states drive (an angle, dth/dt = w1 - w2) by integrating it
+from 0 (`linear_form.integrated_states`). On the EMPS
 benchmark with the authors' settings (100 Hz, order 4, 50 border samples, decimation by 10) this
 is their `Script_IDIM_LS.m`.
 
@@ -41,7 +43,7 @@ from ..simulation.integrators import RK4
 from ..simulation.joint import grid_length, paddable, padded
 from ..simulation.objectives import objective
 from ..simulation.problem import make_problem
-from .linear_form import linear_masses, linear_regression
+from .linear_form import integrated_states, linear_masses, linear_regression
 
 CUTOFFS = np.array([0.4, 0.2, 0.1, 0.05, 0.025])  # candidate cutoffs, fractions of the sampling rate
 LM_STARTS = 63  # random LM starts of a model not linear in its parameters (besides the midpoints)
@@ -113,10 +115,13 @@ def filtered_states(recording: Recording, model: Model, cutoff: float | None = N
         src = model.derivative_of.get(s)
         if s not in y and src is not None and src in y:
             y[s] = np.gradient(y[src], h)
+    inputs = {c: np.asarray(recording[c]) for c in model.inputs if c in recording.channels or c in recording.constants}
+    y |= integrated_states(model, y, inputs, h)  # an angle from the speeds that drive it...
     missing = [s for s in model.states if s not in y]
     if missing:
         raise ConfigError(
-            f"{recording._where()}initial_estimate needs every state of model {model.name} measured or the derivative of a measured one; "
+            f"{recording._where()}initial_estimate needs every state of model {model.name} measured, the derivative of a measured one "
+            "or the integral of a rate no parameter enters; "
             f"missing {', '.join(missing)} (the recording has {', '.join(recording.channels)}): a model says which state is the time "
             f"derivative of a measured one with Model.derivative_of ({{{missing[0]!r}: NAME}}); else give every parameter's range "
             f"(params[{model.names[0]!r}].set(min=LO, max=HI))"

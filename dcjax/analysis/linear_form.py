@@ -15,7 +15,11 @@ parameter points (each column's change times the parameter's size within 1e-7 of
 
 g_e(0) = g_e(theta') - A theta' taken at a parameter point theta' (theta = 0 may divide by 0). A
 discrete-time model's rate is (update(c, u, y, dt) - y) / dt. An equation with no parameter
-(dq/dt = v) is left out; a model with an equation in no such form has none (None)."""
+(dq/dt = v) is left out; a model with an equation in no such form has none (None).
+
+A state the recording lacks whose rate no parameter enters and that only recorded states and the
+inputs drive (an angle, dth/dt = w1 - w2; a position, dx/dt = v) is their integral
+(`integrated_states`), so that it can take its place in the rows."""
 
 import jax
 import jax.numpy as jnp
@@ -116,3 +120,45 @@ def linear_regression(
             cols[model.names[m - 1]] = d - Ae[:, m - 1]
             blocks.append((cols, const, model.names[m - 1]))
     return blocks or None
+
+
+FREE_RTOL = 1e-12  # a rate no parameter enters: the same at every probe point to this share of its scale
+
+
+def integrated_states(model: Model, y: dict, u: dict, dt: float) -> dict:
+    """The states missing from `y` (name -> samples every `dt`) whose rate is the same at random
+    parameter points and random values of the missing states (no parameter and no missing state
+    enters it, as dth/dt = w1 - w2), integrated from 0 (the trapezoid rule), as the fit starts a
+    state with no column; in turn, so that a state may integrate one integrated before it.
+    Returns the new ones by name (none for a discrete-time model or a missing input)."""
+    if isinstance(model, DiscreteModel) or any(c not in u for c in model.inputs):
+        return {}
+    known, out = dict(y), {}
+    rng = np.random.default_rng(0)
+    n = len(next(iter(known.values()), ()))
+    rows = np.unique(np.linspace(0, n - 1, min(PROBE_ROWS, n)).astype(int)) if n else np.array([], int)
+    while rows.size:
+        missing = [s for s in model.states if s not in known]
+        if not missing:
+            break
+        points = np.exp(rng.uniform(-3.0, 1.0, size=(2, model.n_params)))
+        probes = []
+        for x in points:
+            for _ in range(2):
+                Y = tuple(jnp.asarray(known[s][rows] if s in known else rng.standard_normal(rows.size)) for s in model.states)
+                U = tuple(jnp.asarray(u[c][rows]) for c in model.inputs)
+                probes.append(np.asarray(_rates(model, jnp.asarray(x), Y, U, jnp.asarray(dt, jnp.float64))))
+        probes = np.stack(probes)  # (4, S, rows)
+        found = False
+        for s in missing:
+            e = model.states.index(s)
+            r = probes[:, e]
+            if np.all(np.isfinite(r)) and np.max(np.abs(r - r[0])) <= FREE_RTOL * max(np.max(np.abs(r)), 1e-300):
+                Y = tuple(jnp.asarray(known[c] if c in known else np.zeros(n)) for c in model.states)
+                U = tuple(jnp.asarray(u[c]) for c in model.inputs)
+                rate = np.asarray(_rates(model, jnp.asarray(points[0]), Y, U, jnp.asarray(dt, jnp.float64)))[e]
+                known[s] = out[s] = np.concatenate([[0.0], np.cumsum(0.5 * dt * (rate[1:] + rate[:-1]))])
+                found = True
+        if not found:
+            break
+    return out

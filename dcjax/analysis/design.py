@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from ..compiling import compiled_when_eager, filter_jit
+from ..compiling import LEAN, compiled_when_eager, filter_jit
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import Model, get_model
@@ -143,7 +143,8 @@ def design_input(
         )
         levels = np.array([np.clip((u[::per][:segments] - lo) / (hi - lo), 0.0, 1.0) for u in us])
         z0 = jnp.concatenate([jnp.asarray(levels), z0])[: max(starts, len(us))]
-    zs, fs = _optimize(loss, z0, int(steps), 0.02)
+    optimize = _optimize if int(z0.shape[0]) * int(steps) * n >= UNHOISTED_WORK else _optimize_unhoisted
+    zs, fs = optimize(loss, z0, int(steps), 0.02)
     fs = np.asarray(fs)
     k = int(np.argmin(np.where(np.isfinite(fs), fs, np.inf)))
     u = np.asarray(loss.profile(zs[k]))
@@ -309,8 +310,7 @@ def _log_variances(loss: _Criterion, inputs: jax.Array) -> jax.Array:
     return jax.vmap(loss.log_variances)(inputs)
 
 
-@filter_jit
-def _optimize(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple[jax.Array, jax.Array]:
+def _adam(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple[jax.Array, jax.Array]:
     """Projected Adam from each row of `z0` (vmapped): the best levels by the exact criterion met
     on the way, and that value."""
 
@@ -333,6 +333,19 @@ def _optimize(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple
         return jnp.where(better, z, best_z), jnp.where(better, f, best_f)
 
     return jax.vmap(run)(z0)
+
+
+_optimize = filter_jit(_adam)
+# XLA:CPU compiles a small while loop as one function (`small-while-loop-hoisting`, the threshold
+# `use_compiled_loops` raises): the design's reverse pass through the sensitivities then compiles
+# slowly and optimizes fast. Below UNHOISTED_WORK starts x steps x samples the compilation saved
+# outweighs the slower steps (2 x 5 x 101: a PMSM's design in 4.3 s against 7.2, SD1's in 2.2
+# against 3.3; without it each unit of work costs ~3-5 us more, with it the compilation ~1-3 s
+# more: SD1's defaults, 1.2e6, take 5.3 s with it and 8.4 without; the break-even, ~3e5 for SD1
+# and ~6e5 for the PMSM, has a margin of ten):
+# `python -m experiments.bench_design_compile`.
+_optimize_unhoisted = filter_jit(_adam, options=LEAN | {"xla_disable_hlo_passes": "small-while-loop-hoisting"})
+UNHOISTED_WORK = 20_000
 
 
 def _noise(m: Model, prob: Problem, noise) -> jax.Array:

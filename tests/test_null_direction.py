@@ -13,6 +13,7 @@ import reference as ref
 import dcjax
 from dcjax import cli
 from dcjax.analysis.report import loose_parameters
+from dcjax.cli.each import file_line
 from dcjax.models.bounds import Bounds
 
 MODEL = str(Path(__file__).with_name("heated_block.py"))
@@ -70,3 +71,10 @@ def test_the_rule_takes_runs_that_ended_and_values_that_spread_past_their_range_
     assert loose_parameters(runs([1.0, 1.5, 1.9, 50.0], polish={"steps": 1}))[1].keys() == {"a"}  # polished runs ended
     assert loose_parameters(runs([1.0, 3.0, 3.0, 3.0], ended)) == (1, {})  # one run alone
     assert loose_parameters(runs([np.nan, np.inf, np.nan, np.inf], ended)) == (0, {})
+    # `dcjax fit --each`: a file's line names them too, with the command that tells more
+    spread = SimpleNamespace(**vars(runs([1.0, 1.5, 1.9, 50.0], ended)), of=1.0, checks=[], model=dcjax.DC())
+    line = file_line("f1", spread, ["b"], Path("out/f1"))
+    assert (
+        line == "f1: OF 1.0000e+00; at bound: b; runs as good spread in: a (`dcjax report out/f1/result.json --uncertainty`); wrote out/f1"
+    )
+    assert "spread" not in file_line("f1", spread, [], Path("out/f1"), spread=False)  # with --uncertainty: its errors say it

@@ -2,11 +2,14 @@
 and where the command's wall time went."""
 
 import time
+from pathlib import Path
 
+from ..analysis.report import loose_parameters
 from ..fitting.each import fit_each
 from ..fitting.result import FailedFit, FitResult
 from ..fitting.summary import summary_rows, write_summary
 from .fit_command import FitCommand
+from .fit_lines import uncertainty_command
 from .flags import as_flags
 from .output import announce, file_names, remove_earlier, save_fit
 from .progress import FileBar, WallSplit
@@ -53,14 +56,8 @@ def fit_each_command(command: FitCommand) -> int:
             if isinstance(result, FitResult):
                 where = out / folders[id(result)]
                 save_fit(result, where, plot=plots == "each")
-                at, warn = at_bound[k], [f.label for f in result.checks]
                 name = result.recording.name if result.recording else f"#{k}"
-                print(
-                    f"{name}: OF {result.of:.4e}"
-                    + (f"; at bound: {', '.join(at)}" if at else "")
-                    + (f"; checks: {' '.join(warn)}" if warn else "")
-                    + f"; wrote {where}"
-                )
+                print(file_line(name, result, at_bound[k], where, spread=not command.uncertainty))
             else:
                 print(f"{result.name}: failed: {as_flags(result.error)}")
                 name = result.name
@@ -79,6 +76,22 @@ def fit_each_command(command: FitCommand) -> int:
         )
         print(split.line(n))
     return 0 if ok == len(rows) else 1 if ok else 2
+
+
+def file_line(name: str, result: FitResult, at_bound: list[str], where: Path, spread: bool = True) -> str:
+    """A fitted file's line: its OF, the parameters at a bound of their range, the data checks'
+    findings, with `spread` the parameters its equally good runs spread in (`loose_parameters`, as
+    `dcjax fit` notes them) and the command that names what the data do determine, and where it
+    was written."""
+    warn = [f.label for f in result.checks]
+    loose = loose_parameters(result)[1] if spread else {}
+    return (
+        f"{name}: OF {result.of:.4e}"
+        + (f"; at bound: {', '.join(at_bound)}" if at_bound else "")
+        + (f"; checks: {' '.join(warn)}" if warn else "")
+        + (f"; runs as good spread in: {', '.join(loose)} (`{uncertainty_command(result, where)}`)" if loose else "")
+        + f"; wrote {where}"
+    )
 
 
 def flagged_names(rows: list[dict]) -> list[str]:

@@ -50,14 +50,18 @@ def bound_hints(result: FitResult) -> list[str]:
     return out
 
 
+def uncertainty_command(result: FitResult, out: Path) -> str:
+    """The `dcjax report ... --uncertainty` command for the result written to `out` (its model named where it is a file's)."""
+    spec = model_spec(result.model)
+    return shlex.join(["dcjax", "report", str(out / "result.json"), "--uncertainty", *(["--model", spec] if spec not in MODELS else [])])
+
+
 def loose_lines(result: FitResult, out: Path) -> list[str]:
     """A note where the runs that fit as well as the best spread in some parameters (`loose_text`)."""
     loose = loose_text(result)
     if loose is None:
         return []
-    spec = model_spec(result.model)
-    command = shlex.join(["dcjax", "report", str(out / "result.json"), "--uncertainty", *(["--model", spec] if spec not in MODELS else [])])
-    return [f"note: {loose} (`{command}` names what they do determine)"]
+    return [f"note: {loose} (`{uncertainty_command(result, out)}` names what they do determine)"]
 
 
 def _truth(recs: list[Recording], names: tuple[str, ...]) -> dict | None:

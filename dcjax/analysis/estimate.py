@@ -116,7 +116,7 @@ def filtered_states(recording: Recording, model: Model, cutoff: float | None = N
         if s not in y and src is not None and src in y:
             y[s] = np.gradient(y[src], h)
     inputs = {c: np.asarray(recording[c]) for c in model.inputs if c in recording.channels or c in recording.constants}
-    y |= integrated_states(model, y, inputs, h)  # an angle from the speeds that drive it...
+    y |= integrated_states(model, y, inputs, h)  # a shaft's twist from the speeds either side of it
     missing = [s for s in model.states if s not in y]
     if missing:
         raise ConfigError(

@@ -123,6 +123,7 @@ def linear_regression(
 
 
 FREE_RTOL = 1e-12  # a rate no parameter enters: the same at every probe point to this share of its scale
+_compiled_rates = filter_jit(_rates)  # one program per shape, not each operation compiled on its own
 
 
 def integrated_states(model: Model, y: dict, u: dict, dt: float) -> dict:
@@ -150,7 +151,7 @@ def integrated_states(model: Model, y: dict, u: dict, dt: float) -> dict:
         ]
         try:
             probes = np.stack(
-                [np.asarray(_rates(model, jnp.asarray(x), Y, U, jnp.asarray(dt, jnp.float64))) for x, Y in draws]
+                [np.asarray(_compiled_rates(model, jnp.asarray(x), Y, U, jnp.asarray(dt, jnp.float64))) for x, Y in draws]
             )  # (4, S, rows)
         except Exception:  # a vector field that cannot take these values: the caller's one-line refusal
             return out
@@ -161,7 +162,7 @@ def integrated_states(model: Model, y: dict, u: dict, dt: float) -> dict:
             if np.all(np.isfinite(r)) and np.max(np.abs(r - r[0])) <= FREE_RTOL * max(np.max(np.abs(r)), 1e-300):
                 Y = tuple(jnp.asarray(known[c] if c in known else np.zeros(n)) for c in model.states)
                 U = tuple(jnp.asarray(u[c]) for c in model.inputs)
-                rate = np.asarray(_rates(model, jnp.asarray(points[0]), Y, U, jnp.asarray(dt, jnp.float64)))[e]
+                rate = np.asarray(_compiled_rates(model, jnp.asarray(points[0]), Y, U, jnp.asarray(dt, jnp.float64)))[e]
                 known[s] = out[s] = np.concatenate([[0.0], np.cumsum(0.5 * dt * (rate[1:] + rate[:-1]))])
                 found = True
         if not found:

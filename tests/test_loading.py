@@ -62,8 +62,10 @@ def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
     ones (`06.12.2026 23:59:59,99`, `7.12.2026 0:00:00.01`) or times of day (`23:59:59,9999`
     with a decimal comma, `9:59:59.99`) is the time in seconds after its first one, exact to the
     microsecond (it said "cannot detect the delimiter"), a time of day past midnight too; `timestamp`
-    names the time column. Mixed time zones are a text cell: one line naming the line; a slashed
-    date (month or day first?) is one line saying how to write it."""
+    names the time column. Mixed time zones are a text cell: one line naming the line. A slashed
+    date reads month or day first by the step past midnight (`12/6/2026 11:59:59.99 PM` then
+    `12/7/2026 12:00:00.00 AM` is a day later; `6/12/2026` then `7/12/2026` too), year first as
+    year/month/day; one that does not read is one line saying how it may be written."""
     import datetime
 
     n = 200
@@ -95,9 +97,19 @@ def test_a_loggers_timestamps_read_as_seconds_after_the_first(tmp_path, sd1):
         dcjax.DataError, match=r"mixed.csv: line 10: field 0 \('2026-12-06T23:59:59.990700Z'\) is a timestamp that cannot follow"
     ):
         load_recording(mixed)
-    us = written("us.csv", "time,u_a,i_a,omega", lambda s: f"{s.month}/{s.day}/{s.year} {s:%H:%M:%S.%f}")
-    with pytest.raises(dcjax.DataError, match=r"us.csv: the last line holds a date with slashes \('12/7/2026'\).*ISO 8601"):
-        load_recording(us)
+    for f in (
+        written("us.csv", "time,u_a,i_a,omega", lambda s: f"{s.month}/{s.day}/{s.year} {s:%H:%M:%S.%f}"),
+        written("us-12h.csv", "time,u_a,i_a,omega", lambda s: f"{s.month}/{s.day}/{s.year} {s:%I:%M:%S.%f} {s:%p}"),
+        written("uk.csv", "time;u_a;i_a;omega", lambda s: f"{s:%d/%m/%y %H:%M:%S,%f}", sep=";", comma=True),
+        written("ymd.csv", "time,u_a,i_a,omega", lambda s: f"{s:%Y/%m/%d %H:%M:%S.%f}"),
+    ):
+        rec = load_recording(f)
+        assert np.max(np.abs(rec.t - sd1.t[:n])) < 1e-15 and rec.t[0] == 0.0, f.name
+    same_day = written("day.csv", "time,u_a,i_a,omega", lambda s: f"{s:%m/%d/%Y %H:%M:%S.%f}".replace("12/0", "11/0"))
+    assert np.max(np.abs(load_recording(same_day).t - sd1.t[:n])) < 1e-15  # 11/06 then 11/07: a day in one order, a month in the other
+    dashed = written("dashed.csv", "time,u_a,i_a,omega", lambda s: f"{s.month}/{s.day}/{s.year}-{s:%H:%M:%S.%f}")
+    with pytest.raises(dcjax.DataError, match=r"dashed.csv: the last line holds a date with slashes \('12/7/2026'\).*ISO 8601"):
+        load_recording(dashed)
 
 
 @pytest.mark.slow  # a CLI fit; the fast run's DAQ test detects the comma too

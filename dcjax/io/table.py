@@ -11,7 +11,8 @@ first such numeric row on; after it, every line that is not a comment (`#`, `%`)
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
 is empty, `nan`, `NA`, `null` or `none` is NaN (a row of them only, as loggers write between
 bursts, is a row of NaN: `drop_nan` drops it). A timestamp (ISO 8601, `2026-12-06 08:00:00.0001`,
-`2026-12-06T08:00:00Z`; day.month.year `06.12.2026 08:00:00,0001`; or a time of day `8:00:00,0001`) is read as the seconds after the
+`2026-12-06T08:00:00Z`; day.month.year `06.12.2026 08:00:00,0001`; a slashed date `12/6/2026 8:00:00.5 PM`,
+`6/12/2026 20:00`, `2026/12/06 20:00:00`; or a time of day `8:00:00,0001`) is read as the seconds after the
 column's first one, exact to the microsecond (`Clocks`). The header is the nearest line of that width
 above the data (a commented one where there is no other); a line of units may stand between
 them. Units, from that line or a header such as `speed_rpm`, `I [mA]`, are kept per column
@@ -57,7 +58,10 @@ TIMESTAMP = re.compile(
     r"|^\d{1,2}\.\d{1,2}\.\d{4}(?:[T ]\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?$"  # day.month.year (a German logger's), and a time
     r"|^\d{1,2}:\d{2}:\d{2}(?:[.,]\d+)?$"  # a time of day
 )
-SLASHED_DATE = re.compile(r"\b\d{1,2}/\d{1,2}/\d{2,4}\b")  # 12/6/2026: month or day first? not read
+SLASHED = re.compile(  # 12/6/2026 8:00:00.5 PM, 6/12/26 20:00, 2026/12/06 20:00:00: `Clocks` tells month from day
+    r"^(\d{1,2}|\d{4})/(\d{1,2})/(\d{1,2}|\d{4})(?:[T ](\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)(?: ?([AaPp][Mm]))?)?$"
+)
+SLASHED_DATE = re.compile(r"\b\d{1,4}/\d{1,2}/\d{1,4}\b")  # in a last line that does not read: named in the error
 DOTTED_DATE = re.compile(r"^(\d{1,2})\.(\d{1,2})\.(\d{4})(?:[T ](.*))?$")
 DAY = datetime.date(2000, 1, 1)  # a time of day's date (its seconds are taken after the column's first)
 
@@ -66,14 +70,22 @@ class Clocks:
     """Timestamps read as the seconds after their column's first one (the first read sets it):
     the time differences exact to the microsecond, where seconds since 1970 in float64 would
     round them to 0.24 µs. A time of day that falls back by more than 12 h has passed midnight.
+    A slashed date is year/month/day where the year comes first, else month/day/year or
+    day/month/year: both are kept while they give the same seconds (a record within one day, or
+    6/6), and where they part (the date changes) the one whose step from the row before is the
+    smallest forward one is the column's (12/6 -> 12/7 past midnight: a day, not a month).
     One per file read; a throwaway one where only whether a field reads matters."""
 
     def __init__(self):
         self.origins: dict[int, datetime.datetime] = {}
         self.last: dict[int, datetime.datetime] = {}  # a time-of-day column's last stamp, its date advanced past midnights
+        self.orders: dict[int, dict[str, tuple[datetime.datetime, datetime.datetime]]] = {}  # slashed: order -> (first, last)
 
     def seconds(self, column: int, text: str) -> float | None:
         """`text` as seconds after column `column`'s first timestamp, or None where it is none."""
+        slashed = SLASHED.match(text)
+        if slashed:
+            return self._slashed(column, slashed.groups())
         if not TIMESTAMP.match(text):
             return None
         t = text.replace(",", ".")
@@ -95,10 +107,66 @@ class Clocks:
         except (ValueError, TypeError):  # not a date (month 13), or one with a time zone among ones without
             return None
 
+    def _slashed(self, column: int, parts: tuple) -> float | None:
+        """A slashed date's seconds after the column's first, in the orders still possible."""
+        a, b, c, clock, half = parts
+        try:
+            time = _time_of_day(clock.replace(",", ".") if clock else "00:00", half)
+        except ValueError:
+            return None
+        if len(a) == 4:
+            fields = {"ymd": (int(a), int(b), int(c))}
+        elif len(c) == 1:
+            return None
+        else:
+            year = int(c) + (2000 if len(c) == 2 else 0)
+            fields = {"mdy": (year, int(a), int(b)), "dmy": (year, int(b), int(a))}
+        stamps = {}
+        for order, (y, m, d) in fields.items():
+            try:
+                stamps[order] = datetime.datetime.combine(datetime.date(y, m, d), time)
+            except ValueError:  # month 13 in this order
+                pass
+        known = self.orders.get(column)
+        if known is None:
+            if not stamps:
+                return None
+            self.orders[column] = {o: (s, s) for o, s in stamps.items()}
+            self.origins[column] = next(iter(stamps.values()))
+            return 0.0
+        kept = {o: (first, stamps[o]) for o, (first, _) in known.items() if o in stamps}
+        if not kept:
+            return None
+        if len({(s - first) for first, s in kept.values()}) > 1:  # the orders part: the nearest step forward decides
+            step = {o: stamps[o] - known[o][1] for o in kept}
+            best = min(kept, key=lambda o: (step[o] < datetime.timedelta(0), abs(step[o])))
+            kept = {best: kept[best]}
+        self.orders[column] = kept
+        first, stamp = next(iter(kept.values()))
+        self.origins[column] = first
+        return (stamp - first).total_seconds()
 
-def _time_of_day(text: str) -> datetime.time:
-    """`8:00:00.5` / `08:00` as a time (ISO 8601 wants two digits for the hour)."""
-    return datetime.time.fromisoformat(text.zfill(len(text) + 1) if text.index(":") == 1 else text)
+    def forget(self, columns) -> None:
+        """Drop what `columns` have read (a line that turned out to be no row)."""
+        for column in columns:
+            self.origins.pop(column, None)
+            self.orders.pop(column, None)
+
+
+def is_timestamp(text: str) -> bool:
+    """Whether `text` has a timestamp's form (whether it is a valid one, `Clocks` tells)."""
+    return bool(TIMESTAMP.match(text) or SLASHED.match(text))
+
+
+def _time_of_day(text: str, half: str | None = None) -> datetime.time:
+    """`8:00:00.5` / `08:00` as a time (ISO 8601 wants two digits for the hour); `half` "AM" or
+    "PM": a 12-hour clock's (12:30 AM is 00:30)."""
+    time = datetime.time.fromisoformat(text.zfill(len(text) + 1) if text.index(":") == 1 else text)
+    if half is None:
+        return time
+    if not 1 <= time.hour <= 12:
+        raise ValueError(f"hour {time.hour} on a 12-hour clock")
+    return time.replace(hour=time.hour % 12 + (12 if half.upper() == "PM" else 0))
 
 
 def row_values(fields: list[str], decimal: str, clocks: Clocks | None = None) -> list[float] | None:
@@ -116,8 +184,7 @@ def row_values(fields: list[str], decimal: str, clocks: Clocks | None = None) ->
                 continue
             stamp = clocks.seconds(k, f)
             if stamp is None:
-                for column in list(clocks.origins)[known:]:  # a line that is no row sets no column's first timestamp
-                    del clocks.origins[column]
+                clocks.forget(list(clocks.origins)[known:])  # a line that is no row sets no column's first timestamp
                 return None
             out.append(stamp)
     return out
@@ -151,8 +218,9 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
     slashed = SLASHED_DATE.search(lines[-1])
     if slashed:
         raise DataError(
-            f"the last line holds a date with slashes ({slashed.group(0)!r}), which does not say whether the month or the day "
-            "comes first: write the dates as ISO 8601 (2026-12-06 08:00:00) or day.month.year (06.12.2026 08:00:00)"
+            f"the last line holds a date with slashes ({slashed.group(0)!r}) that does not read as a timestamp field: "
+            "month/day/year, day/month/year or year/month/day, then a space or T and a time (8:00:00.5, 8:00:00 PM); "
+            "or write the dates as ISO 8601 (2026-12-06 08:00:00)"
         )
     raise DataError(
         "cannot detect the delimiter: the last line is not a row of numbers separated by ';', tab, ',' or whitespace; give delimiter="
@@ -364,11 +432,12 @@ def _bad_row(path: Path, lineno: int, fields: list[str], width: int, decimal: st
     cut = _is_last(path, lineno)
     if len(fields) != width:
         return f"{where} has {len(fields)} field(s), the data rows from line {first} have {width}: {CUT_SHORT if cut else 'a ragged or broken row'}"
-    stamp = next(((k, f) for k, f in enumerate(fields) if TIMESTAMP.match(f) and clocks.seconds(k, f) is None), None)
+    stamp = next(((k, f) for k, f in enumerate(fields) if is_timestamp(f) and clocks.seconds(k, f) is None), None)
     if stamp is not None and stamp[0] in clocks.origins:
         return (
             f"{where}: field {stamp[0]} ({stamp[1]!r}) is a timestamp that cannot follow the column's first "
-            f"({clocks.origins[stamp[0]].isoformat()}): a time zone in one and not the other, or no date"
+            f"({clocks.origins[stamp[0]].isoformat()}): a time zone in one and not the other, no date, or a date that is none "
+            "(month 13)"
         )
     bad = next((k, f) for k, f in enumerate(fields) if row_values([f], decimal) is None)
     if cut:

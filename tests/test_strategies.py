@@ -93,6 +93,28 @@ def test_non_finite_never_selected(method):
     assert np.isfinite(float(out.best_f)) and x[0] >= 0.5 and x[1] >= 0.3
 
 
+def test_a_budget_the_initial_population_spends_compiles_no_loop():
+    """`max_iterations(budget) == 0` exactly where the run loop would make no step (the largest
+    such budget: the loop's condition false after the initial population; the next: true);
+    there `run_batch` leaves the loop out of the program: the initial population's best, no
+    iteration."""
+    from dcjax.strategies.base import run_active, run_batch, run_start
+
+    key = jax.random.PRNGKey(3)
+    budgets = jnp.arange(5, 40)  # traced: one program a strategy (below a population no step fits either way)
+    enters = jax.jit(lambda s, k: jax.vmap(lambda b: run_active(s, run_start(s, k, sphere, 40, 7), b, 40))(budgets), static_argnums=0)
+    for method in METHODS:
+        s = make_strategy(method, pop_size=10)
+        none = [s.max_iterations(int(b)) == 0 for b in budgets]  # GA's whole step costs a population, ABC's bees are twice its sources
+        assert list(~np.asarray(enters(s, key))) == none and 1 <= sum(none) < len(none), method
+    s, keys = make_strategy("de-best-1-bin", pop_size=10), jax.random.split(key, 2)
+    whiles = lambda b: str(jax.make_jaxpr(lambda k: run_batch(s, k, sphere, b, 7))(keys)).count("while[")
+    assert whiles(10) < whiles(11)  # the random draws' own loops aside
+    out = jax.jit(lambda k: run_batch(s, k, sphere, 10, 7))(keys)
+    assert list(out.iterations) == [0, 0] and list(out.fes) == [10, 10] and np.all(np.isnan(out.history)) and not np.any(out.converged)
+    np.testing.assert_array_equal(out.best_f, sphere(out.best_x))
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["de-rand-1-exp", "abc"])
 def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):

@@ -191,6 +191,8 @@ class Strategy(eqx.Module):
         return 1
 
     def max_iterations(self, budget: int) -> int:
+        """The iterations `budget` FEs buy after the initial population: 0 only where no step
+        fits the budget that the initial population leaves (the run loop is then not compiled)."""
         raise NotImplementedError
 
     def init(self, key, fn: FitnessFn, budget: int, dim: int, x0: Array | None = None) -> State:
@@ -372,6 +374,8 @@ def run_batch(
     `options`: `run_start`'s `memory`, `precision`, `generations`, `x0` (no `capacity`: the default)."""
     t_max = iteration_limit(strategy, budget, options.get("generations"))
     carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, **options))(keys)
+    if strategy.max_iterations(budget) == 0:  # the initial population spends the budget: no loop to compile (its body would not run)
+        return jax.vmap(lambda c: run_output(c, converged(strategy, c, stop)))(carry)
     n_runs = keys.shape[0]
 
     def active(c):
@@ -472,5 +476,7 @@ def run(strategy: Strategy, key: PRNGKeyArray, fn: FitnessFn, budget: int, dim: 
     (with `until`), `run_output`."""
     stop = options.pop("stop", None)
     t_max = iteration_limit(strategy, budget, options.get("generations"))
-    carry = run_steps(strategy, run_start(strategy, key, fn, budget, dim, **options), fn, budget, t_max, stop=stop)
+    carry = run_start(strategy, key, fn, budget, dim, **options)
+    if strategy.max_iterations(budget) > 0:  # else the initial population spends the budget (see `run_batch`)
+        carry = run_steps(strategy, carry, fn, budget, t_max, stop=stop)
     return run_output(carry, converged(strategy, carry, stop))

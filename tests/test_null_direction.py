@@ -14,6 +14,7 @@ import dcjax
 from dcjax import cli
 from dcjax.analysis.report import loose_parameters
 from dcjax.cli.each import file_line
+from dcjax.fitting.summary import summary_rows, write_summary
 from dcjax.models.bounds import Bounds
 
 MODEL = str(Path(__file__).with_name("heated_block.py"))
@@ -41,6 +42,11 @@ def test_runs_that_fit_as_well_with_other_values_are_named(tmp_path, capsys):
     assert "spread: C by" in capsys.readouterr().out  # the report says it too, and what to run
     assert cli.main(["report", str(tmp_path / "free" / "result.json"), "--uncertainty", "--model", f"{MODEL}:HeatedBlock"]) == 0
     assert "null direction: C, k, Rth are not determined" in capsys.readouterr().out
+    free = dcjax.load_result(tmp_path / "free" / "result.json", model=f"{MODEL}:HeatedBlock")
+    (row,) = summary_rows([free])  # a folder's summary.csv names them in its `loose` column
+    assert {"C", "k"} <= set(row["loose"].split()) and "Ta" not in row["loose"], row["loose"]
+    csv_path, _ = write_summary([row], tmp_path / "summary", free.model, plot=False)
+    assert csv_path.read_text().splitlines()[0].endswith(",outlier,loose"), csv_path.read_text()
     # k known: C and Rth are determined, the runs agree, nothing to say; the automatic ranges come
     # from an estimate that holds k at 0.9 too (it took them from the free estimate: C at 136 +- 58,
     # its range's top 202, and the fit pinned C there)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.checks import fit_findings
-from ..analysis.report import channel_fit
+from ..analysis.report import channel_fit, loose_parameters
 from ..errors import ConfigError
 from ..io.files import save_figure, write_atomic
 from ..models import Model
@@ -72,8 +72,9 @@ def outlier_flags(rows: list[dict], results: Sequence[FitResult], names: Sequenc
 
 def summary_rows(results: Sequence[FitResult | FailedFit]) -> list[dict]:
     """One row per recording: status, error, OF, parameters, fit % per channel, at-bound
-    parameters, the data checks' findings (`checks`: before and after the fit) and the outlier
-    flags (`outlier_flags`, over the model's parameters)."""
+    parameters, the data checks' findings (`checks`: before and after the fit), the outlier
+    flags (`outlier_flags`, over the model's parameters) and the parameters its equally good runs
+    spread in (`loose`: `loose_parameters`, a direction the data do not determine)."""
 
     rows = []
     for r in results:
@@ -97,6 +98,7 @@ def summary_rows(results: Sequence[FitResult | FailedFit]) -> list[dict]:
             findings += fit_findings(r, rec, fits)
         row["at_bound"] = " ".join(r.at_bound())
         row["checks"] = " ".join(f.label for f in findings)
+        row["loose"] = " ".join(loose_parameters(r)[1])
         rows.append(row)
     ok = [k for k, row in enumerate(rows) if row["status"] == "ok"]
     fitted = [r for r in results if isinstance(r, FitResult)]
@@ -120,10 +122,10 @@ def write_summary(rows: list[dict], folder: Path, model: Model, plot: bool = Tru
     m = model
     folder.mkdir(parents=True, exist_ok=True)
     channels = [f"fit_{c}" for c in m.outputs]
-    known = {"name", "file", "folder", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier"}
+    known = {"name", "file", "folder", "status", "error", "of", *m.names, *channels, "at_bound", "checks", "outlier", "loose"}
     extra = list(dict.fromkeys(k for row in rows for k in row if k not in known))  # the experiment's y0_*, offset_*, delay_*
     folder_col = ["folder"] if any("folder" in row for row in rows) else []  # the command line's sub-folder of each result
-    cols = ["name", "file", *folder_col, "status", "error", "of", *m.names, *extra, *channels, "at_bound", "checks", "outlier"]
+    cols = ["name", "file", *folder_col, "status", "error", "of", *m.names, *extra, *channels, "at_bound", "checks", "outlier", "loose"]
     csv_path = folder / "summary.csv"
     text = io.StringIO(newline="")
     w = csv.DictWriter(text, fieldnames=cols, extrasaction="ignore")

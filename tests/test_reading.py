@@ -83,3 +83,23 @@ def test_the_fit_table_prints_no_digit_its_standard_error_does_not_justify(noisy
     result = dcjax.load_result(out / "result.json")
     html = result._repr_html_() + result.params._repr_html_() + result.recordings[0]._repr_html_()
     assert html.count("<table>") == 3 and "Recording &#x27;sd1n&#x27;: 501 samples" in html
+
+
+def test_the_digits_note_says_how_many_runs_the_six_digits_come_from():
+    """Six significant digits where nothing tells the error: one run says so and asks for two; of
+    several runs, none but the best within 2x of its OF says that (a second run would not help)."""
+    from types import SimpleNamespace
+
+    from dcjax.analysis.report import digits_note
+
+    def result(run_of):
+        x = np.outer(np.arange(1, len(run_of) + 1), [42.5, 0.08])
+        return SimpleNamespace(names=("Ra", "La"), fixed=(), best_values={"Ra": 42.5, "La": 0.08}, run_of=np.asarray(run_of),
+                               run_params=x, uncertainties=None)  # fmt: skip
+
+    assert digits_note(result([1e-20])).startswith(
+        "values to six significant digits (one run, no standard error: --uncertainty or --runs 2"
+    )
+    note = digits_note(result([1e-20, 5e-20, 1e-13]))
+    assert "no other of the 3 runs came within 2x of the best's OF" in note and "--runs 2" not in note, note
+    assert digits_note(result([1e-20, 1.5e-20, 1e-13])).startswith("values to two significant digits of the spread of the 2 runs")

@@ -112,10 +112,16 @@ def digits_note(result) -> str:
     """One line saying where the printed digits come from."""
     sources = {s for _, s in value_uncertainties(result).values()}
     agree = int(np.sum(np.asarray(result.run_of) <= AGREEING_RUNS * np.nanmin(result.run_of) + 1e-300))
+    runs = len(result.run_of)
+    alone = (
+        "one run, no standard error: --uncertainty or --runs 2 tell more"
+        if runs == 1
+        else f"no other of the {runs} runs came within 2x of the best's OF, no standard error: --uncertainty tells more"
+    )
     said = {
         "std. error": "their standard error",
         "runs": f"the spread of the {agree} runs that agree with the best, OF within 2x",
-        "one run": "six significant digits (one run, no standard error: --uncertainty or --runs 2 tell more)",
+        "one run": f"six significant digits ({alone})",
     }
     first, *rest = (said[s] for s in said if s in sources)
     head = first if first.startswith("six") else "two significant digits of " + first

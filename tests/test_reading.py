@@ -86,11 +86,12 @@ def test_the_fit_table_prints_no_digit_its_standard_error_does_not_justify(noisy
 
 
 def test_the_digits_note_says_how_many_runs_the_six_digits_come_from():
-    """Six significant digits where nothing tells the error: one run says so and asks for two; of
-    several runs, none but the best within 2x of its OF says that (a second run would not help)."""
+    """Six significant digits where nothing tells the error (their source "best run", as a notebook's
+    table shows it): one run says so and asks for two; of several runs, none but the best within 2x
+    of its OF says that (a second run would not help)."""
     from types import SimpleNamespace
 
-    from dcjax.analysis.report import digits_note
+    from dcjax.analysis.report import digits_note, value_uncertainties
 
     def result(run_of):
         x = np.outer(np.arange(1, len(run_of) + 1), [42.5, 0.08])
@@ -102,4 +103,5 @@ def test_the_digits_note_says_how_many_runs_the_six_digits_come_from():
     )
     note = digits_note(result([1e-20, 5e-20, 1e-13]))
     assert "no other of the 3 runs came within 2x of the best's OF" in note and "--runs 2" not in note, note
+    assert {s for _, s in value_uncertainties(result([1e-20, 5e-20, 1e-13])).values()} == {"best run"}  # the notebook's "from" column
     assert digits_note(result([1e-20, 1.5e-20, 1e-13])).startswith("values to two significant digits of the spread of the 2 runs")

@@ -44,7 +44,7 @@ def value_uncertainties(result) -> dict[str, tuple[float, str]]:
     """Per free parameter, the uncertainty its printed digits keep two significant digits of, and
     where it comes from: its standard error ("std. error", where `result.uncertainty()` gave a
     finite one), else the standard deviation of the runs that agree with the best ("runs"; OF
-    within 2x of the best), else six significant digits ("one run"); never below 1e-12 relative."""
+    within 2x of the best), else six significant digits ("best run": the best run alone); never below 1e-12 relative."""
     u = getattr(result, "uncertainties", None)
     of = np.asarray(result.run_of, dtype=float)
     agree = np.isfinite(of) & (of <= AGREEING_RUNS * np.nanmin(of) + 1e-300) if np.isfinite(of).any() else of > 0
@@ -59,7 +59,7 @@ def value_uncertainties(result) -> dict[str, tuple[float, str]]:
         elif spread is not None:
             out[n] = (max(float(spread[k]), FLOAT_PRECISION * v), "runs")
         else:
-            out[n] = (ONE_RUN_PRECISION * v, "one run")
+            out[n] = (ONE_RUN_PRECISION * v, "best run")
     return out
 
 
@@ -121,7 +121,7 @@ def digits_note(result) -> str:
     said = {
         "std. error": "their standard error",
         "runs": f"the spread of the {agree} runs that agree with the best, OF within 2x",
-        "one run": f"six significant digits ({alone})",
+        "best run": f"six significant digits ({alone})",
     }
     first, *rest = (said[s] for s in said if s in sources)
     head = first if first.startswith("six") else "two significant digits of " + first
@@ -177,7 +177,7 @@ def fit_html(result) -> str:
     for k, n in enumerate(result.names):
         e, source = errors.get(n, (None, "fixed"))
         flag = "fixed" if n in result.fixed else "at bound" if n in at_bound else ""
-        rows.append((n, shown[n], "" if e is None or source == "one run" else f"{e:.2g}", source, units.get(n, ""),
+        rows.append((n, shown[n], "" if e is None or source == "best run" else f"{e:.2g}", source, units.get(n, ""),
                      f"{result.bounds.lower[k]:.3g}", f"{result.bounds.upper[k]:.3g}", flag))  # fmt: skip
     s = result.settings
     caption = (

@@ -108,7 +108,7 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
         )
     w = max(6, *(len(n) for n in result.names))
     shown, errors = shown_values(result), value_uncertainties(result)
-    pm = any(source != "one run" for _, source in errors.values())
+    pm = any(source != "best run" for _, source in errors.values())
     wv = max(10, *(len(t) for t in shown.values()))
     print(
         f"{'param':>{w}} {'unit':>7} {'identified':>{wv}}"
@@ -120,7 +120,7 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
     for k, name in enumerate(result.names):
         v = result.best_values[name]
         e, source = errors.get(name, (0.0, "fixed"))
-        error = f" {e:>8.2g}" if source not in ("one run", "fixed") else f" {'':>8}"
+        error = f" {e:>8.2g}" if source not in ("best run", "fixed") else f" {'':>8}"
         line = f"{name:>{w}} {unit_of(name, model):>7} {shown[name]:>{wv}}{error if pm else ''} {b.lower[k]:>10.3g} {b.upper[k]:>10.3g}"
         if truth and base_name(name) in truth:
             t = truth[base_name(name)]

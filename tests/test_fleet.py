@@ -53,6 +53,26 @@ def test_sharded_fleet_equals_single_device():
     assert outs[1]["x"] == outs[4]["x"] and outs[1]["of"] == outs[4]["of"]
 
 
+def test_a_batch_gives_the_same_bits_side_by_side_as_one_after_another(monkeypatch):
+    """A batch's recordings run one after another on a CPU (`lax.map`) and side by side elsewhere
+    (`vmap`, `dcjax.fitting.runs.side_by_side`): both give every recording the same runs, here
+    both on the CPU."""
+    from dcjax.fitting import runs
+
+    recs = fleet_recordings(3, seed=2, n=120)
+    search = dcjax.Search(runs=2, seed=0, budget=1_400)
+    fits = lambda: [r for r in dcjax.fit_each(recs, params="table4", search=search) if isinstance(r, dcjax.FitResult)]
+    mapped = fits()
+    asked = []
+    monkeypatch.setattr(runs, "side_by_side", lambda mesh: asked.append(mesh) or True)
+    vmapped = fits()
+    assert asked and len(mapped) == len(vmapped) == 3 and mapped[0].timing["batch"] == vmapped[0].timing["batch"] == 3
+    for a, b in zip(mapped, vmapped):
+        np.testing.assert_array_equal(a.run_params, b.run_params)
+        np.testing.assert_array_equal(a.run_of, b.run_of)
+        np.testing.assert_array_equal(a.fes, b.fes)
+
+
 @pytest.mark.slow
 def test_fleet_recovers_motors():
     """The fleet is the batch runner: each motor's full result, the bits of a fit of it alone."""

@@ -31,7 +31,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optax
 
 from ..compiling import LEAN, compiled_when_eager, filter_jit
 from ..errors import ConfigError
@@ -313,6 +312,7 @@ def _log_variances(loss: _Criterion, inputs: jax.Array) -> jax.Array:
 def _adam(loss: _Criterion, z0: jax.Array, steps: int, rate: float) -> tuple[jax.Array, jax.Array]:
     """Projected Adam from each row of `z0` (vmapped): the best levels by the exact criterion met
     on the way, and that value."""
+    import optax  # lazy: 0.1 s of every dcjax import (and command) that designs no input
 
     opt = optax.adam(rate)
 

@@ -265,3 +265,33 @@ def test_vector_field_matches_eq_8_9():
     a = vector_field(k, 200.0, 1.5, 120.0)
     b = derivatives(p, 200.0, 1.5, 120.0)
     np.testing.assert_allclose(a, b, rtol=1e-13)
+
+
+def test_a_host_array_goes_on_the_device_without_compiling_and_a_traced_one_stays_in_its_program():
+    """`dcjax.compiling.on_device`: what `jnp.asarray` gives (values, dtype, not weakly typed), but
+    no program compiled for new shapes (`jnp.asarray` of a host array compiles one per shape)."""
+    from jax._src import monitoring
+
+    from dcjax.compiling import on_device
+
+    compiles = []
+    listen = lambda name, duration, **kw: compiles.append(name) if "backend_compile" in name else None
+    monitoring.register_event_duration_secs_listener(listen)
+    try:
+        for host, dtype in (
+            (np.arange(137.0), None),
+            ([1.5, 2.5, 3.5], None),
+            (7, np.int64),
+            (0.25, np.float64),
+            (np.arange(5), np.float64),
+        ):
+            got = on_device(host, dtype)
+            want = np.asarray(host, dtype)
+            assert isinstance(got, jax.Array) and got.dtype == want.dtype and not got.weak_type and np.array_equal(got, want)
+        assert compiles == [], compiles
+    finally:
+        monitoring.unregister_event_duration_listener(listen)
+    already = jnp.arange(3.0)
+    assert on_device(already) is already
+    traced = jax.jit(lambda a: on_device(a, np.float64) * 2)(jnp.arange(3))
+    assert traced.dtype == np.float64 and np.array_equal(traced, [0.0, 2.0, 4.0])

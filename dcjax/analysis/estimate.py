@@ -33,7 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..compiling import filter_jit
+from ..compiling import filter_jit, on_device
 from ..errors import ConfigError
 from ..io.recording import Recording
 from ..models import DiscreteModel, Model, get_model
@@ -67,7 +67,7 @@ def _output_errors(recording: Recording, model: Model, xs: list[np.ndarray]) -> 
     problem = make_problem(recording, None if isinstance(model, DiscreteModel) else RK4(substeps=2), model=model)
     if paddable(problem):  # masked to a power-of-two length: a folder of many lengths compiles a few programs
         problem = padded(problem, grid_length(problem.n))
-    f = np.asarray(_objective_jit(jnp.asarray(x), problem))
+    f = np.asarray(_objective_jit(on_device(x), problem))
     return np.where(ok & np.isfinite(f), f, np.inf)
 
 

@@ -7,11 +7,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import jax.numpy as jnp
 import numpy as np
 
 from ..analysis.plotting import plot_result
 from ..analysis.report import fit_html, fit_report
+from ..compiling import on_device
 from ..errors import ConfigError
 from ..io.files import strict_json, write_text
 from ..io.recording import Recording, as_recording
@@ -434,7 +434,7 @@ class FitResult:
         `simulate_outputs`). `simulation(recording)`: the same, labelled."""
         rec = self.recording if recording is None else as_recording(recording, self.model, measured=False)
         target = self.target([rec], measured=False)
-        x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
+        x = on_device([self.best_values[n] for n in self.names], np.float64)
         sim = simulate_on_grid(x, target, 0)
         adj = target.adjustments(x, 0)
         if adj is not None and adj.offset is not None and not self.model.has_output_equation:
@@ -446,7 +446,7 @@ class FitResult:
         """(N, C) the compared outputs (`model.outputs`, in order) of the best parameters on
         `recording` (default: the first fitted one; another may hold the inputs alone), as the
         sensors read them: through the model's output equation, with the fitted offsets."""
-        x = jnp.asarray([self.best_values[n] for n in self.names], dtype=jnp.float64)
+        x = on_device([self.best_values[n] for n in self.names], np.float64)
         recs = None if recording is None else [as_recording(recording, self.model, measured=False)]
         return outputs_on_grid(x, self.target(recs, measured=False), 0)
 

@@ -24,12 +24,11 @@ import time
 from collections.abc import Callable
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, PartitionSpec
 from tqdm import tqdm
 
-from ..compiling import LEAN, QUICK
+from ..compiling import LEAN, QUICK, on_device
 from ..models.space import Space
 from ..simulation.joint import (
     LENGTH_GRID,
@@ -193,8 +192,8 @@ def _group_args(setups: list[Setup], targets: list, search: Search, pad: int):
         return (
             targets[0],
             s.space,
-            None if prec is None else jnp.asarray(prec[0]),
-            None if s.starts is None else jnp.asarray(s.starts),
+            None if prec is None else on_device(prec[0]),
+            None if s.starts is None else on_device(s.starts),
             0,
         )
     dim = setups[0].space.dim
@@ -257,8 +256,8 @@ def run_group(
         prec,
         z0,
         program.hyper,
-        jnp.asarray(token, jnp.int64),
-        jnp.asarray(member),
+        on_device(token, np.int64),
+        on_device(member),
     )
     show = report is not None
     weights = setups[0].target.weights, setups[0].target.layout

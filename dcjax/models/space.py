@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ..compiling import on_device
 from ..errors import ConfigError, finite_number
 from . import Model
 from .bounds import Bounds
@@ -126,4 +127,4 @@ def vector_space(
             f"scale log: {', '.join(bad)} needs a lower bound > 0 (a log-scale search spans min..max in decades); "
             f"give one: params[{names[logs[0]]!r}].set(min=LO, max=HI)"
         )
-    return Space(Bounds(lo, hi, names), jnp.asarray(values), free, tuple(names), logs)
+    return Space(Bounds(lo, hi, names), on_device(values), free, tuple(names), logs)

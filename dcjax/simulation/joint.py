@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ..compiling import compiled_when_eager
+from ..compiling import compiled_when_eager, on_device
 from ..errors import ConfigError
 from ..models.base import DiscreteModel
 from .adjustments import Adjustments
@@ -202,19 +202,19 @@ def padded(problem: Problem, n: int) -> Problem:
     xp = jnp if isinstance(problem.h, jax.core.Tracer) else np
     mask = xp.ones(problem.n) if problem.mask is None else problem.mask
     if k == 0:
-        return problem if problem.mask is not None else dataclasses.replace(problem, mask=jnp.asarray(mask))
+        return problem if problem.mask is not None else dataclasses.replace(problem, mask=on_device(mask))
 
     def hold(a):
         a = xp.asarray(a)
-        return jnp.asarray(xp.concatenate([a, xp.repeat(a[-1:], k, axis=0)]))
+        return on_device(xp.concatenate([a, xp.repeat(a[-1:], k, axis=0)]))
 
     return dataclasses.replace(
         problem,
-        h=jnp.asarray(xp.concatenate([problem.h, xp.zeros(k)])),
+        h=on_device(xp.concatenate([problem.h, xp.zeros(k)])),
         u_start=hold(problem.u_start),
         u_end=hold(problem.u_end),
         y_meas=hold(problem.y_meas),
-        mask=jnp.asarray(xp.concatenate([mask, xp.zeros(k)])),
+        mask=on_device(xp.concatenate([mask, xp.zeros(k)])),
     )
 
 

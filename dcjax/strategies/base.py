@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float, Int, PRNGKeyArray, PyTree
 
+from ..compiling import on_device
 from ..errors import ConfigError
 from .compact import compacted
 from .memory import HashRecords, MemoryAssistance, Records, get_memory
@@ -205,7 +206,7 @@ class Strategy(eqx.Module):
 def hyperparameters(strategy: Strategy) -> dict[str, Array]:
     """The strategy's traced hyperparameters (`Strategy.traced`, e.g. DE's F and CR) as float64
     scalars: an argument of the compiled runs, so a sweep over them reuses one executable."""
-    return {n: jnp.asarray(getattr(strategy, n), jnp.float64) for n in strategy.traced}
+    return {n: on_device(getattr(strategy, n), np.float64) for n in strategy.traced}
 
 
 def with_hyperparameters(strategy: Strategy, values: dict[str, Array]) -> Strategy:

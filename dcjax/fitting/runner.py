@@ -16,6 +16,8 @@ import numpy as np
 from jax.experimental import multihost_utils
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from ..compiling import on_device
+
 
 def fold_keys(seed: int, *shape: int) -> jax.Array:
     """Keys of shape `shape`: key[a, b, ...] = fold_in(...fold_in(PRNGKey(seed), a)..., b)."""
@@ -46,7 +48,7 @@ def to_host(a: jax.Array) -> np.ndarray:
 def replicate(host, mesh: Mesh | None):
     """`host` whole on every device of the mesh (across processes too)."""
     if mesh is None:
-        return jnp.asarray(host)
+        return on_device(host)
     host = np.asarray(host)
     return jax.make_array_from_callback(host.shape, NamedSharding(mesh, PartitionSpec()), lambda idx: host[idx])
 
@@ -55,7 +57,7 @@ def shard(host: np.ndarray | jax.Array, mesh: Mesh | None, axis: str):
     """Put `host` on the mesh, split along its leading axis (works across processes too: every
     process passes the same host data to `jax.make_array_from_callback`)."""
     if mesh is None:
-        return jnp.asarray(host)
+        return on_device(host)
     host = np.asarray(host)
     sharding = NamedSharding(mesh, PartitionSpec(axis))
     return jax.make_array_from_callback(host.shape, sharding, lambda idx: host[idx])

@@ -63,14 +63,19 @@ class _LM(eqx.Module):
     converged: Array
 
 
-def levenberg_marquardt(fn, y0: Float[Array, " F"], rtol: float = 1e-12, atol: float = 1e-14, max_steps: int = 200):
+def levenberg_marquardt(
+    fn, y0: Float[Array, " F"], rtol: float = 1e-12, atol: float = 1e-14, max_steps: int = 200, residuals: int | None = None
+):
     """Minimize sum(fn(y)^2) from `y0`: (y, cost, steps, converged). A step h solves (J^T J + mu
     diag(J^T J)) h = -J^T r; it is taken where it lowers the cost, and mu follows the gain ratio
     (Nielsen). Converged: an accepted step within `atol + rtol |y|` in every entry, or a step
-    that can no longer change y (mu so large that h vanishes), or a cost of zero."""
+    that can no longer change y (mu so large that h vanishes), or a cost of zero. `residuals`:
+    how many entries `fn` returns, where the caller knows (else `fn` is traced once more to
+    find out: for a simulation a tenth of the polish's compile time)."""
     # The first pass of the loop linearizes at y0 (no step): the simulation's linearization is
     # traced once, inside the loop, not once before it and once in it (half the compile time).
-    dim, m = y0.shape[0], jax.eval_shape(fn, y0).shape[0]
+    dim = y0.shape[0]
+    m = jax.eval_shape(fn, y0).shape[0] if residuals is None else residuals
     start = _LM(
         y0,
         jnp.zeros(m, y0.dtype),
@@ -147,8 +152,8 @@ def polish(
     def fn(y):
         return target.residuals(space.to_physical(_to_unit(y)))
 
-    y, cost, steps, converged = levenberg_marquardt(fn, _to_free(space.to_unit(x), eps), rtol, atol, max_steps)
-    r0 = target.residuals(x)
+    r0 = target.residuals(x)  # the start's residuals: their count sizes the solver's state
+    y, cost, steps, converged = levenberg_marquardt(fn, _to_free(space.to_unit(x), eps), rtol, atol, max_steps, r0.shape[0])
     of0 = jnp.sum(r0 * r0)
     x_new = space.to_physical(_to_unit(y))
     better = cost <= of0

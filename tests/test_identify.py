@@ -148,6 +148,9 @@ def test_levenberg_marquardt_reaches_scipys_least_squares_optimum():
     assert bool(converged)
     np.testing.assert_allclose(np.asarray(y), want.x, rtol=1e-8)
     assert float(cost) == pytest.approx(2 * want.cost, rel=1e-12)  # scipy's cost is half the sum of squares
+    # the residuals' count given (as `polish` gives it) instead of found by one more trace: the same bits
+    given = levenberg_marquardt(lambda p: p[0] * jnp.exp(-p[1] * t) + p[2] - data, jnp.array([1.0, 1.0, 0.0]), residuals=40)
+    assert np.array_equal(np.asarray(given[0]), np.asarray(y)) and float(given[1]) == float(cost)
 
 
 @pytest.mark.slow

@@ -70,8 +70,8 @@ def levenberg_marquardt(
     diag(J^T J)) h = -J^T r; it is taken where it lowers the cost, and mu follows the gain ratio
     (Nielsen). Converged: an accepted step within `atol + rtol |y|` in every entry, or a step
     that can no longer change y (mu so large that h vanishes), or a cost of zero. `residuals`:
-    how many entries `fn` returns, where the caller knows (else `fn` is traced once more to
-    find out: for a simulation a tenth of the polish's compile time)."""
+    how many entries `fn` returns, where the caller knows it (else `fn` is traced once more to
+    find out, for a simulation one more trace of its time loop)."""
     # The first pass of the loop linearizes at y0 (no step): the simulation's linearization is
     # traced once, inside the loop, not once before it and once in it (half the compile time).
     dim = y0.shape[0]

@@ -291,7 +291,7 @@ def test_hash_memory_finds_the_same_cell_only():
 @pytest.mark.parametrize("memory", [None, "stma", "ltma-s2", "ltma-hash"])
 def test_run_batch_equals_separate_runs(sd1_fn, memory):
     """`run_batch` (one loop over all runs, finished runs masked) gives each run's own result."""
-    from dcjax.strategies.base import run_batch
+    from dcjax.strategies.loop import run_batch
 
     s = make_strategy("de-rand-1-exp")
     keys = jax.random.split(jax.random.PRNGKey(7), 3)

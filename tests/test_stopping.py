@@ -9,7 +9,7 @@ import pytest
 
 import dcjax
 from dcjax.cli import main
-from dcjax.strategies.base import has_converged
+from dcjax.strategies.loop import has_converged
 from dcjax.strategies.stopping import Converged
 
 METHODS = ["de-rand-1-exp", "de-best-1-bin", "tlbo", "ga", "abc", "cma-es"]

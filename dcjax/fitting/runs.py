@@ -44,7 +44,8 @@ from ..simulation.joint import (
     stacked_target,
 )
 from ..simulation.kernel import kernel_mode
-from ..strategies.base import BatchProgram, FitnessFn, batch_program
+from ..strategies.base import FitnessFn
+from ..strategies.loop import BatchProgram, batch_program
 from .runner import ExecutableCache, mesh_of, padded_size, replicate, shard, to_host
 from .search import Search
 from .setup import Setup

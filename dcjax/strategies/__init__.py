@@ -3,9 +3,10 @@ run whole by `run` as a `lax.while_loop`, `vmap`-able over independent runs."""
 
 from ..errors import ConfigError
 from .abc import ABC
-from .base import RunOutput, State, Strategy, run
+from .base import State, Strategy
 from .de import DEBest1Bin, DERand1Exp
 from .ga import GA
+from .loop import RunOutput, run
 from .stopping import Converged
 from .tlbo import TLBO
 

@@ -16,11 +16,12 @@ from typing import ClassVar
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, index_below, initial_state, uniforms
+from .base import State, Strategy, apply_bounds, distinct_indices, evaluate, index_below, initial_state, is_pending, pending_state, uniforms
 
 
 class ABC(Strategy):
     population_converges: ClassVar[bool] = False  # its mutation (scouts) keeps it diverse: `Converged` asks the best's stagnation only
+    evaluates_pending: ClassVar[bool] = True
     limit: int = 100
     bounds_rule: str = "clip"
     init_rule: str = "uniform"
@@ -35,6 +36,9 @@ class ABC(Strategy):
     def init(self, key, fn, budget, dim, x0=None) -> State:
         return initial_state(key, fn, budget, self.n_sources, dim, self.init_rule, aux=jnp.zeros(self.n_sources, jnp.int32), x0=x0)
 
+    def pending(self, key, dim, x0=None) -> State:
+        return pending_state(key, self.n_sources, dim, self.init_rule, aux=jnp.zeros(self.n_sources, jnp.int32), x0=x0)
+
     def _move(self, key, pop, who):
         """Candidate v for the sources `who` (one per bee)."""
         sn, d = pop.shape
@@ -47,12 +51,16 @@ class ABC(Strategy):
         return apply_bounds(bounds, v, self.bounds_rule, x)
 
     def step(self, key, state, fn, budget) -> State:
+        """Employed, onlooker and scout bees (above); from a `pending` state, the employed bees
+        evaluate the sources themselves (each beats its +inf), the onlookers spend nothing (a
+        budget of 0) and no trial is counted (so no scout flies)."""
         sn = self.n_sources
+        first = is_pending(state)
         ke, ko, kc, ks = jax.random.split(key, 4)
         pop, fit, trials = state.pop, state.fit, state.aux
         # Employed bees.
         idx = jnp.arange(sn)
-        v = self._move(ke, pop, idx)
+        v = jnp.where(first, pop, self._move(ke, pop, idx))
         fv, v, state = evaluate(fn, v, state, budget)
         win = (fv <= fit) & jnp.isfinite(fv)
         pop = jnp.where(win[:, None], v, pop)
@@ -64,7 +72,7 @@ class ABC(Strategy):
         prob = jnp.where(total > 0, quality / jnp.where(total > 0, total, 1.0), 1.0 / sn)
         chosen = jax.random.choice(kc, sn, (sn,), p=prob)
         v = self._move(ko, pop, chosen)
-        fv, v, state = evaluate(fn, v, state, budget)
+        fv, v, state = evaluate(fn, v, state, jnp.where(first, 0, budget))
         per_source = jnp.where(chosen[None, :] == idx[:, None], fv[None, :], jnp.inf)  # (source, bee)
         best_bee = jnp.argmin(per_source, axis=1)
         cand_f = per_source[idx, best_bee]
@@ -72,7 +80,7 @@ class ABC(Strategy):
         win = targeted & (cand_f <= fit) & jnp.isfinite(cand_f)
         pop = jnp.where(win[:, None], v[best_bee], pop)
         fit = jnp.where(win, cand_f, fit)
-        trials = jnp.where(win, 0, trials + targeted.astype(trials.dtype))
+        trials = jnp.where(win | first, 0, trials + targeted.astype(trials.dtype))
         # Scout bee.
         worst = jnp.argmax(trials)
         scout = trials[worst] > self.limit

@@ -7,7 +7,20 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
 from ..errors import ConfigError
-from .base import BOUND_RULES, State, Strategy, apply_bounds, distinct_indices, evaluate, greedy, index_below, initial_state, uniforms
+from .base import (
+    BOUND_RULES,
+    State,
+    Strategy,
+    apply_bounds,
+    distinct_indices,
+    evaluate,
+    greedy,
+    index_below,
+    initial_state,
+    is_pending,
+    pending_state,
+    uniforms,
+)
 
 
 def exponential_crossover(u: Float[Array, "P D"], target: Float[Array, "P D"], mutant: Float[Array, "P D"], cr: float):
@@ -40,6 +53,7 @@ class _DE(Strategy):
     bounds_rule: str = "redraw"
     init_rule: str = "uniform"
     n_picks: ClassVar[int] = 0  # distinct population indices the mutation needs
+    evaluates_pending: ClassVar[bool] = True
 
     def __check_init__(self):
         if self.bounds_rule not in BOUND_RULES:
@@ -53,6 +67,9 @@ class _DE(Strategy):
     def init(self, key, fn, budget, dim, x0=None) -> State:
         return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule, x0=x0)
 
+    def pending(self, key, dim, x0=None) -> State:
+        return pending_state(key, self.pop_size, dim, self.init_rule, x0=x0)
+
     def mutant(self, r: Int[Array, "P n"], state: State) -> Array:
         raise NotImplementedError
 
@@ -63,12 +80,14 @@ class _DE(Strategy):
         raise NotImplementedError
 
     def step(self, key, state: State, fn, budget) -> State:
-        """Mutation, crossover and bounds from one draw of variates, then greedy selection."""
+        """Mutation, crossover and bounds from one draw of variates, then greedy selection; from a
+        `pending` state the population itself is the trial (every member beats its +inf)."""
         p, d = state.pop.shape
         u_pick, u_cross, u_bounds = uniforms(key, p, (self.n_picks, self.crossover_width(d), d))
         r = distinct_indices(u_pick, p, jnp.arange(p))
         trial = self.crossover(u_cross, state.pop, self.mutant(r, state))
         trial = apply_bounds(u_bounds, trial, self.bounds_rule, state.pop)
+        trial = jnp.where(is_pending(state), state.pop, trial)
         trial_fit, trial, state = evaluate(fn, trial, state, budget)
         pop, fit, _ = greedy(state.pop, state.fit, trial, trial_fit)
         return state.replace(pop=pop, fit=fit)

@@ -17,11 +17,12 @@ from typing import ClassVar
 import jax
 import jax.numpy as jnp
 
-from .base import State, Strategy, evaluate, initial_state
+from .base import State, Strategy, evaluate, initial_state, is_pending, pending_state
 
 
 class GA(Strategy):
     population_converges: ClassVar[bool] = False  # its mutation (scouts) keeps it diverse: `Converged` asks the best's stagnation only
+    evaluates_pending: ClassVar[bool] = True
     mutation_rate: float = 0.2
     keep: float = 0.5
     init_rule: str = "uniform"
@@ -36,7 +37,11 @@ class GA(Strategy):
     def init(self, key, fn, budget, dim, x0=None) -> State:
         return initial_state(key, fn, budget, self.pop_size, dim, self.init_rule, x0=x0)
 
+    def pending(self, key, dim, x0=None) -> State:
+        return pending_state(key, self.pop_size, dim, self.init_rule, x0=x0)
+
     def step(self, key, state, fn, budget) -> State:
+        """One generation (above); from a `pending` state, the evaluation of its population."""
         n, d = state.pop.shape
         n_keep = max(2, int(round(self.keep * n)))
         n_child = n - n_keep
@@ -60,5 +65,6 @@ class GA(Strategy):
         flat = jax.random.choice(km, (n - 1) * d, (n_mut,), replace=False) + d  # skip row 0 (elite)
         mask = jnp.zeros(n * d, bool).at[flat].set(True).reshape(n, d)
         pop = jnp.where(mask, jax.random.uniform(kv, (n, d)), pop)
+        pop = jnp.where(is_pending(state), state.pop, pop)
         fit, pop, state = evaluate(fn, pop, state, budget)
         return state.replace(pop=pop, fit=fit)

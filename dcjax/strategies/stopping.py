@@ -1,6 +1,6 @@
 """When a run stops before its budget: `Converged`, the rule of scipy's `differential_evolution`
 (`tol`, `atol`), pygmo (`ftol`) and CMA-ES (`tolfun`, stagnation), which the run loop asks after
-every iteration inside the compiled loop (`dcjax.strategies.base.converged`). The budget (and a
+every iteration inside the compiled loop (`dcjax.strategies.loop.converged`). The budget (and a
 strategy's `generations`) stays the upper bound."""
 
 import equinox as eqx

@@ -1,6 +1,6 @@
-"""What every search strategy shares: its state, budget-aware evaluation, bound rules and the
-operators (the compiled run loop is `dcjax.strategies.loop`'s). Strategies search the unit cube [0, 1]^D; `Bounds.to_physical` maps it onto
-the paper's limits (Tables 4 and 8)."""
+"""What every search strategy shares: its state, budget-aware evaluation, bound rules and
+operators (the compiled run loop is `dcjax.strategies.loop`'s). Strategies search the unit cube
+[0, 1]^D; `Bounds.to_physical` maps it onto the paper's limits (Tables 4 and 8)."""
 
 import dataclasses
 from collections.abc import Callable, Sequence
@@ -74,10 +74,9 @@ def initial_state(
     """A random population of `n` (see `uniform_population`), evaluated within the budget.
     `x0` (K, D), unit cube: start values put in place of the first K members' genes (NaN: keep
     the random gene)."""
-    pop = seed_population(uniform_population(key, n, dim, init), x0)
+    state = pending_state(key, n, dim, init, aux, x0)
     allowed = jnp.arange(n) < budget
-    fit = jnp.where(allowed, finite_or_inf(fn(pop)), jnp.inf)
-    return State(pop, fit, pop[0], jnp.asarray(jnp.inf), jnp.sum(allowed), aux, jnp.asarray(0))
+    return state.replace(fit=jnp.where(allowed, finite_or_inf(fn(state.pop)), jnp.inf), fes=jnp.sum(allowed))
 
 
 def pending_state(key: PRNGKeyArray, n: int, dim: int, init: str, aux: PyTree = None, x0: Array | None = None) -> State:
@@ -85,8 +84,8 @@ def pending_state(key: PRNGKeyArray, n: int, dim: int, init: str, aux: PyTree = 
     strategy's `step` evaluates it as it finds it (`is_pending`), so that a run's program holds one
     copy of the objective, in its loop, not a second before it (`folds_initial_evaluation`)."""
     pop = seed_population(uniform_population(key, n, dim, init), x0)
-    unevaluated = jnp.zeros(n, bool)
-    return State(pop, jnp.full(n, jnp.inf, pop.dtype), pop[0], jnp.asarray(jnp.inf), jnp.sum(unevaluated), aux, jnp.asarray(0))
+    none = jnp.sum(jnp.zeros(n, bool))  # 0 FEs, typed as a count of evaluations is
+    return State(pop, jnp.full(n, jnp.inf, pop.dtype), pop[0], jnp.asarray(jnp.inf), none, aux, jnp.asarray(0))
 
 
 def is_pending(state: State) -> Bool[Array, ""]:

@@ -218,9 +218,8 @@ def run_batch(
     `options`: `run_start`'s `memory`, `precision`, `generations`, `x0` (no `capacity`: the default)."""
     t_max = iteration_limit(strategy, budget, options.get("generations"))
     carry = jax.vmap(lambda k: run_start(strategy, k, fn, budget, dim, **options))(keys)
-    if (
-        strategy.max_iterations(budget) == 0 or t_max < 1
-    ):  # the initial population spends the budget: no loop to compile (its body would not run)
+    # the initial population spends the budget: no loop to compile (its body would not run)
+    if strategy.max_iterations(budget) == 0 or t_max < 1:
         return jax.vmap(lambda c: run_output(c, converged(strategy, c, stop)))(carry)
     n_runs = keys.shape[0]
 
@@ -236,7 +235,7 @@ def run_batch(
         # The history is written at the run's slot, not selected whole (a copy of every run's
         # history each iteration: 50 SD1 runs searched 2 % longer with it).
         # (`new.history[i]`: the iteration's entry, or the old one after a `pending` state's pass)
-        slot = lambda h, i, f, g: jax.lax.dynamic_update_slice(h, jnp.where(g, f[i], h[i])[None], (i,))
+        slot = lambda h, i, h_new, g: jax.lax.dynamic_update_slice(h, jnp.where(g, h_new[i], h[i])[None], (i,))
         kept = jax.tree.map(pick, eqx.tree_at(lambda c: c.history, new, old.history), old)
         return eqx.tree_at(lambda c: c.history, kept, jax.vmap(slot)(old.history, old.it, new.history, go))
 

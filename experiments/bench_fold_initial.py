@@ -34,7 +34,7 @@ SEARCH_PROGRAMS = ("device_runs", "one_after_another", "side_by_side")
 _compiled: list[tuple[str, float, int]] = []
 
 
-def _timed_backend_compile():
+def time_backend_compiles():
     """XLA's compile call, timed per program (name, seconds, characters of its module)."""
     backend_compile = compiler.backend_compile_and_load
 
@@ -81,7 +81,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5)
     args = ap.parse_args()
-    _timed_backend_compile()
+    time_backend_compiles()
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, jax {jax.__version__}; XLA seconds of the search program: "
           f"median (min) of {args.rounds} compiles each way, alternating")  # fmt: skip
     print(f"{'case':<38} {'before the loop':>16} {'in the loop':>16} {'ratio':>6} {'module chars':>18} {'same bits':>9}")

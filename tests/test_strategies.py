@@ -155,6 +155,22 @@ def test_the_initial_population_evaluated_in_the_loop_gives_the_bits_of_before_i
     np.testing.assert_allclose(batch.best_f, np.asarray(sphere(batch.best_x)), rtol=1e-14)
 
 
+def test_a_batch_whose_runs_stop_apart_gives_each_runs_bits_alone():
+    """`run_batch` tests the stopping rule once an iteration and carries the result (the loop's
+    condition, the mask of finished runs, `converged` in the output): runs that converge at
+    different iterations, and one that spends its budget, end as each run alone does, to the bit."""
+    from dcjax.strategies.loop import run_batch
+
+    s, keys = make_strategy("de-rand-1-exp", pop_size=10), jax.random.split(jax.random.PRNGKey(11), 4)
+    stop = dcjax.Converged(rtol=0.0, atol=1e-3, patience=3)
+    batch = jax.jit(lambda k: run_batch(s, k, sphere, 480, 7, stop=stop), compiler_options=QUICK_COMPILE)(keys)
+    one = jax.jit(lambda k: run(s, k, sphere, 480, 7, stop=stop), compiler_options=QUICK_COMPILE)
+    for r in range(keys.shape[0]):
+        for a, b in zip(jax.tree.leaves(jax.tree.map(lambda x, r=r: x[r], batch)), jax.tree.leaves(one(keys[r])), strict=True):
+            np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert len(set(np.asarray(batch.iterations).tolist())) > 1 and np.any(batch.converged) and not np.all(batch.converged), batch
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["de-rand-1-exp", "abc"])
 def test_vmap_over_runs_equals_separate_runs(method, sd1_fn):

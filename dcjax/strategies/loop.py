@@ -238,8 +238,8 @@ def run_batch(
         """The carry after one iteration of the runs still active (`go`): a finished run's small
         leaves selected back, its history slot keeping its old value."""
         state, it, entry = jax.vmap(lambda c: iterate(strategy, c, fn, budget))(c)
-        new = RunCarry(state, it, c.history, c.key)  # one run: the loop runs only while it is active
-        if n_runs > 1:
+        new = RunCarry(state, it, c.history, c.key)
+        if n_runs > 1:  # one run: the loop runs only while it is active, nothing to select back
 
             def pick(a, b):
                 if a.ndim == 0 or a.size // n_runs > MASK_LIMIT:

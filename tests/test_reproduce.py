@@ -96,7 +96,15 @@ def _reproduce(tmp, *extra) -> subprocess.CompletedProcess[str]:
 
 
 def _start_reproduce(tmp, *extra) -> subprocess.Popen:
-    return subprocess.Popen(_command(tmp, *extra), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # SIGINT as a terminal gives it, also where the tests run as a background job (which inherits it ignored, and
+    # Python then ignores it: the run went on to its end)
+    return subprocess.Popen(
+        _command(tmp, *extra),
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
 
 
 @pytest.mark.slow

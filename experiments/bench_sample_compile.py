@@ -81,7 +81,8 @@ def by_hand(res, chains: int, warmup: int, draws: int, seed: int, compiled: dict
     mesh = P.chain_mesh(chains)
     states, params = compiled["warm"](jax.random.split(k_warm, chains), starts, *shared, warmup, mesh)
     pos = compiled["draw"](jax.random.split(k_draw, chains), states, params, *shared, draws, mesh)
-    free, rhat = map(np.asarray, P._diagnostics(pos, space, white))  # and the diagnostics, as `sample` gives them
+    free = np.asarray(P._free_draws(pos, space, white))  # and the diagnostics, as `sample` gives them
+    rhat = np.array([sample_size.rhat(free[..., k]) for k in range(free.shape[-1])])
     ess = [(sample_size.ess_bulk(free[..., k]), sample_size.ess_tail(free[..., k])) for k in range(free.shape[-1])]
     return free, rhat, ess
 

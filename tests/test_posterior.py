@@ -66,6 +66,39 @@ def test_effective_sample_sizes_are_arviz_ones_on_autocorrelated_chains_with_tie
             assert mine == pytest.approx(theirs, rel=1e-12) or (np.isnan(mine) and np.isnan(theirs)), (shape, mine, theirs)
 
 
+def test_rhat_is_arviz_and_blackjax_rhat_on_autocorrelated_chains_with_ties():
+    """The rank-normalised split R-hat of AR(1) chains (2-4 chains, odd and even lengths, some
+    rounded so that draws tie, chains of shifted means) against ArviZ's `rhat` and, where the
+    length is even (blackjax drops a chain's last draw of an odd length, ArviZ its middle one),
+    blackjax's; NaN for one chain, under 4 draws, for a constant or a non-finite draw."""
+    az = pytest.importorskip("arviz")
+    from blackjax.diagnostics import rhat as blackjax_rhat
+
+    from dcjax.analysis.sample_size import rhat
+
+    rng = np.random.default_rng(1)
+    checked = 0
+    for k in range(16):
+        chains, n, phi = int(rng.integers(2, 5)), int(rng.integers(20, 600)), rng.uniform(-0.5, 0.99)
+        e = rng.standard_normal((chains, n))
+        x = np.zeros((chains, n))
+        x[:, 0] = e[:, 0]
+        for i in range(1, n):
+            x[:, i] = phi * x[:, i - 1] + e[:, i]
+        x = x + (0.5 * np.arange(chains)[:, None] if k % 4 == 1 else 0.0)  # chains that disagree
+        x = np.round(x, 1) if k % 3 == 0 else x
+        mine = rhat(x)
+        assert mine == pytest.approx(float(az.rhat(az.convert_to_dataset({"a": x}))["a"]), rel=1e-12), k
+        if n % 2 == 0 and not checked:  # blackjax's, compiled: ~1 s for each shape (eagerly ~5 s)
+            assert mine == pytest.approx(float(jax.jit(blackjax_rhat)(jnp.asarray(x))), rel=1e-12), k
+            checked += 1
+    assert checked == 1
+    x = rng.standard_normal((3, 100)) + np.array([[0.0], [0.0], [3.0]])
+    assert rhat(x) > 1.5  # a chain far from the others
+    for bad in (rng.standard_normal((1, 50)), rng.standard_normal((3, 3)), np.ones((4, 50)), np.where(np.eye(4, 50) > 0, np.nan, 1.0)):
+        assert np.isnan(rhat(bad))
+
+
 def test_reflecting_nuts_samples_a_gaussian_cut_by_walls():
     """N(0, diag(0.3^2, 1)) on theta_0 >= 0, -0.5 <= theta_1 <= 2, the mode on a wall: the draws'
     means are the truncated normal's within 5 Monte Carlo standard errors (a step that did not

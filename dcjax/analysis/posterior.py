@@ -16,8 +16,8 @@ thousand steps. Chains start at the optimum, jittered by the Laplace approximati
 information of the noise model, plus 12 I for the uniform prior's variance 1/12 in z), whose
 covariance also seeds the dense mass matrix of Stan's window adaptation (`nuts_chain`: blackjax's
 `window_adaptation` to the bit, its warm-up and the draws one loop over one NUTS kernel, compiled
-once). Diagnostics are Vehtari et al. (2021)'s rank-normalised split R-hat,
-(`blackjax.diagnostics`) and bulk and tail ESS (`sample_size`: Stan's and ArviZ's estimator). blackjax rather than numpyro: dcjax already has a log
+once). Diagnostics are Vehtari et al. (2021)'s rank-normalised split R-hat and bulk and tail ESS
+(`sample_size`: Stan's and ArviZ's estimators, in NumPy). blackjax rather than numpyro: dcjax already has a log
 density as a pure JAX function of a vector, which is blackjax's whole interface (no model DSL), and
 its kernels map or vmap over chains."""
 
@@ -25,7 +25,6 @@ import dataclasses
 import time
 from collections.abc import Mapping
 
-import blackjax.diagnostics as diag
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -408,9 +407,10 @@ def sample(
     _, records = _chains(keys, chain, *shared, np.int64(warmup), np.int64(warmup + draws), int(warmup), int(draws), mesh)
     jax.block_until_ready(records)
     t2 = time.perf_counter()
-    free, rhat = map(np.asarray, _diagnostics(records[0], space, white))
+    free = np.asarray(_free_draws(records[0], space, white))
     _, (div, steps, acc, energy), (depth, lp) = jax.tree.map(np.asarray, records)
     names = space.free_names
+    rhat = [sample_size.rhat(free[..., k]) for k in range(len(names))]
     ess_bulk = [sample_size.ess_bulk(free[..., k]) for k in range(len(names))]
     ess_tail = [sample_size.ess_tail(free[..., k]) for k in range(len(names))]
     return Posterior(
@@ -441,14 +441,11 @@ def sample(
 
 
 @filter_jit
-def _diagnostics(pos, space: Space, white: Whitening):
-    """The draws' free entries in physical units, (chains, draws, F), and their rank-normalised split
-    R-hat (NaN for one chain or under `sample_size.MIN_DRAWS` draws): one compiled program
-    (blackjax's diagnostics run eagerly compile some 200 small ones on each new shape)."""
-    free = jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos)[..., jnp.asarray(space.free)]
-    enough = free.shape[0] > 1 and free.shape[1] >= sample_size.MIN_DRAWS  # else NaN, as ArviZ
-    rhat = diag.rhat(free) if enough else jnp.full(free.shape[-1], jnp.nan)
-    return free, jnp.atleast_1d(rhat)
+def _free_draws(pos, space: Space, white: Whitening):
+    """The draws' free entries in physical units, (chains, draws, F): one small compiled program
+    (their diagnostics are NumPy's, `sample_size`: blackjax's R-hat compiled ~1 s of XLA for each
+    new shape of draws)."""
+    return jax.vmap(jax.vmap(lambda e: _physical(space, white, e)))(pos)[..., jnp.asarray(space.free)]
 
 
 def _inside(white: Whitening, theta):

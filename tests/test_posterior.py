@@ -35,6 +35,18 @@ def test_each_loss_is_a_normalised_density_and_its_scale_maximises_it(loss):
         assert float(loss.log_density(S, a.size, best)) > float(loss.log_density(S, a.size, f * best))
 
 
+def _ar1_chains(rng: np.random.Generator, min_chains: int, max_length: int = 800) -> np.ndarray:
+    """min_chains-4 chains of an AR(1) x_i = phi x_(i-1) + e_i, phi ~ U(-0.5, 0.99), of one length
+    in 20..max_length."""
+    chains, n, phi = int(rng.integers(min_chains, 5)), int(rng.integers(20, max_length)), rng.uniform(-0.5, 0.99)
+    e = rng.standard_normal((chains, n))
+    x = np.zeros((chains, n))
+    x[:, 0] = e[:, 0]
+    for i in range(1, n):
+        x[:, i] = phi * x[:, i - 1] + e[:, i]
+    return x
+
+
 def test_effective_sample_sizes_are_arviz_ones_on_autocorrelated_chains_with_ties():
     """Bulk and tail ESS of AR(1) chains (1-4 chains, odd and even lengths, some rounded so that
     draws tie, a tie at a tail quantile too) against ArviZ's `ess`, computed by ArviZ."""
@@ -43,12 +55,7 @@ def test_effective_sample_sizes_are_arviz_ones_on_autocorrelated_chains_with_tie
 
     rng = np.random.default_rng(0)
     for k in range(24):
-        chains, n, phi = int(rng.integers(1, 5)), int(rng.integers(20, 800)), rng.uniform(-0.5, 0.99)
-        e = rng.standard_normal((chains, n))
-        x = np.zeros((chains, n))
-        x[:, 0] = e[:, 0]
-        for i in range(1, n):
-            x[:, i] = phi * x[:, i - 1] + e[:, i]
+        x = _ar1_chains(rng, 1)
         x = np.round(x, 1) if k % 3 == 0 else x
         data = az.convert_to_dataset({"a": x})
         assert ess_bulk(x) == pytest.approx(float(az.ess(data, method="bulk")["a"]), rel=1e-12), k
@@ -79,13 +86,9 @@ def test_rhat_is_arviz_and_blackjax_rhat_on_autocorrelated_chains_with_ties():
     rng = np.random.default_rng(1)
     checked = 0
     for k in range(16):
-        chains, n, phi = int(rng.integers(2, 5)), int(rng.integers(20, 600)), rng.uniform(-0.5, 0.99)
-        e = rng.standard_normal((chains, n))
-        x = np.zeros((chains, n))
-        x[:, 0] = e[:, 0]
-        for i in range(1, n):
-            x[:, i] = phi * x[:, i - 1] + e[:, i]
-        x = x + (0.5 * np.arange(chains)[:, None] if k % 4 == 1 else 0.0)  # chains that disagree
+        x = _ar1_chains(rng, 2, 600)
+        n = x.shape[1]
+        x = x + (0.5 * np.arange(x.shape[0])[:, None] if k % 4 == 1 else 0.0)  # chains that disagree
         x = np.round(x, 1) if k % 3 == 0 else x
         mine = rhat(x)
         assert mine == pytest.approx(float(az.rhat(az.convert_to_dataset({"a": x}))["a"]), rel=1e-12), k

@@ -1,6 +1,7 @@
 """Where the test suite's time goes: a pytest plugin that records, per test, JAX's compile events
-(tracing, lowering, XLA) and every program handed to XLA (its name, a hash of its module and the
-seconds XLA took), one JSON file per xdist worker; and a summary of those files.
+(tracing, lowering, XLA), every program handed to XLA (its name, a hash of its module and the
+seconds XLA took) and the seconds of Python's full garbage collections (generation 2, automatic
+or asked for), one JSON file per xdist worker; and a summary of those files.
 
     DCJAX_SUITE_PROFILE=/tmp/prof python -m pytest -q -m "not slow" -p experiments.suite_profile
     python -m experiments.suite_profile /tmp/prof
@@ -11,6 +12,7 @@ shared persistent cache did not save), the XLA seconds by program name, and the 
 compile most. Compilations in a test's subprocesses are not seen (only their wall time)."""
 
 import collections
+import gc
 import glob
 import hashlib
 import json
@@ -19,6 +21,7 @@ import sys
 import time
 
 FOLDER = os.environ.get("DCJAX_SUITE_PROFILE")
+FULL_GC = "full garbage collections"
 _current: list = [None]
 _events: dict = collections.defaultdict(collections.Counter)  # test -> compile event -> seconds
 _programs: list = []  # (hash, name, seconds, test)
@@ -33,6 +36,17 @@ def _install() -> None:
             _events[_current[0]][event.rsplit("/", 1)[-1]] += duration
 
     jax.monitoring.register_event_duration_secs_listener(on_duration)
+    started: list = [0.0]
+
+    def on_collection(phase, info):
+        if info["generation"] != 2:
+            return
+        if phase == "start":
+            started[0] = time.perf_counter()
+        elif _current[0] is not None:
+            _events[_current[0]][FULL_GC] += time.perf_counter() - started[0]
+
+    gc.callbacks.append(on_collection)
     backend_compile = compiler.backend_compile_and_load
 
     def timed(backend, module, *args, **kwargs):
@@ -81,10 +95,12 @@ def summary(folder: str) -> None:
     wall = sum(c.get("wall", 0.0) for c in tests.values())
     kinds = collections.Counter()
     for c in tests.values():
-        kinds.update({k: v for k, v in c.items() if k != "wall"})
+        kinds.update({k: v for k, v in c.items() if k not in ("wall", FULL_GC)})
     compiling = sum(kinds.values())
+    collecting = sum(c.get(FULL_GC, 0.0) for c in tests.values())
     print(
-        f"{len(tests)} tests, {len(files)} workers: wall summed {wall:.1f} s, compiling {compiling:.1f} s ({compiling / max(wall, 1e-9):.0%})"
+        f"{len(tests)} tests, {len(files)} workers: wall summed {wall:.1f} s, compiling {compiling:.1f} s ({compiling / max(wall, 1e-9):.0%}),"
+        f" {FULL_GC} {collecting:.1f} s"
     )
     for k, v in kinds.most_common():
         print(f"  {k:40s} {v:8.1f} s")
@@ -101,7 +117,9 @@ def summary(folder: str) -> None:
     for name, s in seconds.most_common(15):
         print(f"  {name:40s} {s:8.1f} s  {count[name]:5d} x {s / count[name]:.2f} s")
     print("tests that compile most (compile / wall, seconds):")
-    rows = sorted(((sum(v for k, v in c.items() if k != "wall"), c.get("wall", 0.0), t) for t, c in tests.items()), reverse=True)
+    rows = sorted(
+        ((sum(v for k, v in c.items() if k not in ("wall", FULL_GC)), c.get("wall", 0.0), t) for t, c in tests.items()), reverse=True
+    )
     for comp, w, t in rows[:20]:
         print(f"  {comp:6.1f} / {w:6.1f}  {t}")
 

@@ -261,7 +261,7 @@ def test_repeated_fits_do_not_accumulate_memory_mappings(sd1, monkeypatch):
 
     cache = sys.modules["dcjax.fitting.runs"].EXECUTABLES
     cache.clear()  # the same start whatever ran before (the cache holds `cache.size` executables)
-    monkeypatch.setattr(cache, "size", 1)  # fills after one call: three more show whether evicted ones are freed
+    monkeypatch.setattr(cache, "size", 1)  # fills after one call: four more show whether evicted ones are freed
     methods = ["de-rand-1-exp", "tlbo", "abc", "ga", "de-best-1-bin"]
     counts = []
     gc.disable()  # the eviction itself must free them, not a collection that happens to run

@@ -22,6 +22,7 @@ import time
 
 FOLDER = os.environ.get("DCJAX_SUITE_PROFILE")
 FULL_GC = "full garbage collections"
+NOT_COMPILING = ("wall", FULL_GC)  # a test's entries that are not compile events
 _current: list = [None]
 _events: dict = collections.defaultdict(collections.Counter)  # test -> compile event -> seconds
 _programs: list = []  # (hash, name, seconds, test)
@@ -95,7 +96,7 @@ def summary(folder: str) -> None:
     wall = sum(c.get("wall", 0.0) for c in tests.values())
     kinds = collections.Counter()
     for c in tests.values():
-        kinds.update({k: v for k, v in c.items() if k not in ("wall", FULL_GC)})
+        kinds.update({k: v for k, v in c.items() if k not in NOT_COMPILING})
     compiling = sum(kinds.values())
     collecting = sum(c.get(FULL_GC, 0.0) for c in tests.values())
     print(
@@ -117,9 +118,7 @@ def summary(folder: str) -> None:
     for name, s in seconds.most_common(15):
         print(f"  {name:40s} {s:8.1f} s  {count[name]:5d} x {s / count[name]:.2f} s")
     print("tests that compile most (compile / wall, seconds):")
-    rows = sorted(
-        ((sum(v for k, v in c.items() if k not in ("wall", FULL_GC)), c.get("wall", 0.0), t) for t, c in tests.items()), reverse=True
-    )
+    rows = sorted(((sum(v for k, v in c.items() if k not in NOT_COMPILING), c.get("wall", 0.0), t) for t, c in tests.items()), reverse=True)
     for comp, w, t in rows[:20]:
         print(f"  {comp:6.1f} / {w:6.1f}  {t}")
 

@@ -2,8 +2,6 @@
 simulate / validate / report commands on a saved result."""
 
 import json
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -367,9 +365,14 @@ def test_cli_loading_errors_are_one_line(tmp_path, sd1, args, match, capsys, mon
     assert match in err and "Traceback" not in err and err.count("\n") == 1, err
 
 
-def test_version():
-    p = subprocess.run([sys.executable, "-m", "dcjax", "--version"], capture_output=True, text=True)
-    assert p.returncode == 0 and p.stdout.strip() == f"dcjax {dcjax.__version__}"
+def test_version(capsys):
+    """`dcjax --version` (the command's `entry`, in this process; `python -m dcjax` itself:
+    tests/test_identify.py::test_cli_module_entry_bad_file)."""
+    from dcjax.cli import entry
+
+    with pytest.raises(SystemExit) as end:
+        entry(["--version"])
+    assert end.value.code == 0 and capsys.readouterr().out.strip() == f"dcjax {dcjax.__version__}"
 
 
 def test_saving_a_plot_keeps_the_backend(sd1, tmp_path):

@@ -190,7 +190,9 @@ def test_ltma_capacity_drops_overflow():
     assert int(m.n) == 6 and m.x.shape == (6, 7)
 
 
-@pytest.mark.parametrize("memory", MEMORY_KINDS)
+@pytest.mark.parametrize(
+    "memory", [pytest.param(m, marks=() if m in ("stma", "ltma-hash") else pytest.mark.slow) for m in MEMORY_KINDS]
+)  # the reproduction's two memories in the fast run, every one in the full run
 def test_memory_never_changes_a_returned_of(sd1_fn, memory):
     out = _run(sd1_fn, memory, budget=7000, generations=300)
     assert int(out.dups) > 0

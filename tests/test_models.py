@@ -298,8 +298,13 @@ print(on, "xla_cpu_small_call" in text, again, len(late), os.environ.get("XLA_FL
     "flags, arg, expect",
     [
         (None, "", ["True", "True", "True", "0", "1", "16777216"]),  # on: the time loop is one call
-        (None, "512", ["True", "False", "True", "0", "1", "512"]),  # a 17 KB loop is above 512 bytes
-        ("--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1024", "", ["True", "False", "True", "0", "1", "1024"]),
+        pytest.param(None, "512", ["True", "False", "True", "0", "1", "512"], marks=pytest.mark.slow),  # a 17 KB loop is above 512 bytes
+        pytest.param(
+            "--xla_backend_extra_options=xla_cpu_small_while_loop_byte_threshold=1024",
+            "",
+            ["True", "False", "True", "0", "1", "1024"],
+            marks=pytest.mark.slow,
+        ),  # a process each (3-4 s): the default and a user's own option in the fast run
         ("--xla_backend_extra_options=xla_llvm_dot_tiling_factor=4", "", ["False", "False", "False", "0", "0", "1024"]),  # user's: kept
     ],
 )

@@ -1,6 +1,6 @@
 """Recording validation, CSV round trip, switch-on trimming, bounds and the SD data files."""
 
-import subprocess
+import runpy
 import sys
 from pathlib import Path
 
@@ -133,9 +133,12 @@ def test_make_problem_validation(sd1):
         make_problem(sd1.replace(limit=-2.0))
 
 
-def test_sd_files_are_regenerated_byte_identically():
-    r = subprocess.run([sys.executable, str(ROOT / "data" / "generate_sd.py"), "--check"], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout + r.stderr
+def test_sd_files_are_regenerated_byte_identically(monkeypatch, capsys):
+    """`python data/generate_sd.py --check`, its `__main__` run in this process (no second JAX start)."""
+    monkeypatch.setattr(sys, "argv", ["generate_sd.py", "--check"])
+    with pytest.raises(SystemExit) as end:
+        runpy.run_path(str(ROOT / "data" / "generate_sd.py"), run_name="__main__")
+    assert end.value.code == 0 and "identical" in capsys.readouterr().out
 
 
 def test_sd_sets_follow_tables_2_and_3():

@@ -47,7 +47,7 @@ def test_an_ode_models_constants_are_read_once_and_simulate_as_the_reference():
     np.testing.assert_array_equal(sim, np.asarray(dcjax.simulate(x, columns)))
 
 
-@pytest.mark.parametrize("loss", ["sse", "l1"])
+@pytest.mark.parametrize("loss", ["sse", pytest.param("l1", marks=pytest.mark.slow)])
 def test_every_scan_path_gives_the_bits_of_the_constants_as_columns(loss):
     steady, columns = _pmsm_problems(loss=loss)
     rng = np.random.default_rng(0)

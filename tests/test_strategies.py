@@ -119,7 +119,9 @@ def test_a_budget_the_initial_population_spends_compiles_no_loop():
     np.testing.assert_array_equal(out.best_f, sphere(out.best_x))
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize(
+    "method", [pytest.param(m, marks=() if m == "de-rand-1-exp" else pytest.mark.slow) for m in METHODS]
+)  # the paper's DE (also a run alone) in the fast run: 4 s a strategy, mostly compiling
 def test_the_initial_population_evaluated_in_the_loop_gives_the_bits_of_before_it(method, monkeypatch):
     """Each strategy evaluates its initial population in the run loop's first pass (`pending`):
     its program evaluates the objective at one place fewer than with `init` before the loop, and

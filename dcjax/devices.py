@@ -10,9 +10,11 @@ it yourself right after the imports and before any JAX computation:
 Independent runs are then sharded over the cores (on a 2-core CPU this halves the wall time of
 batched runs; a single run is not faster)."""
 
+import contextlib
 import os
 import re
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import jax
@@ -111,3 +113,34 @@ def use_compilation_cache(path: str | Path | None = None, min_compile_seconds: f
     jax.config.update("jax_compilation_cache_dir", str(where))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", float(min_compile_seconds))
     return where
+
+
+_CACHE_SETTINGS = ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")
+
+
+def _reopen_cache() -> None:
+    """JAX opens its persistent cache once per process, from the folder set at its first
+    compilation; forget it, so the next compilation opens the folder set now."""
+    from jax._src import compilation_cache  # private: JAX's own tests reset it so; no public call does
+
+    compilation_cache.reset_cache()
+
+
+@contextlib.contextmanager
+def compilation_cache(path: str | Path | None = None, min_compile_seconds: float = 0.5) -> Iterator[Path | None]:
+    """`use_compilation_cache` for the `with` block only (the `dcjax` command called in a process:
+    a notebook, a test): JAX's cache folder and threshold are as they were before it afterwards,
+    and a folder of the caller's own is opened again."""
+    before = {name: getattr(jax.config, name) for name in _CACHE_SETTINGS}
+    where = use_compilation_cache(path, min_compile_seconds)
+    moved = where is not None and before["jax_compilation_cache_dir"] != str(where)
+    if moved:
+        _reopen_cache()
+    try:
+        yield where
+    finally:
+        if where is not None:
+            for name, value in before.items():
+                jax.config.update(name, value)
+            if moved:
+                _reopen_cache()

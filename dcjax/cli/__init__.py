@@ -6,7 +6,7 @@ import sys
 import threading
 import warnings
 
-from ..devices import use_compilation_cache, use_compiled_loops, use_host_devices
+from ..devices import compilation_cache, use_compiled_loops, use_host_devices
 from ..errors import DcjaxError
 from .commands import COMMANDS
 from .flags import as_flags
@@ -32,8 +32,8 @@ def main(argv: list[str] | None = None, cleanup: list | None = None) -> int:
     # A repeated fit, or a similar folder, loads its executables (DCJAX_NO_CACHE=1: off); every one,
     # the small ones too: a similar second folder of 20 files then spent 0.25 s in XLA (cache
     # reads) instead of 1.26 s (`python -m experiments.bench_each --lengths 400 1600 --again`).
-    use_compilation_cache(min_compile_seconds=0.0)
-    with warnings.catch_warnings():
+    # For the command only: the calling process's own cache settings hold again after it.
+    with compilation_cache(min_compile_seconds=0.0), warnings.catch_warnings():
         warnings.showwarning = _one_line_warning  # inside this block only (catch_warnings restores it)
         try:
             return COMMANDS[args.command].run(args)

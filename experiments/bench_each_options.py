@@ -65,8 +65,8 @@ def main():
         print(f"{os.cpu_count()} cores; split line (s) and compile's share; summary.csv against the first set's")
         reference = None
         for r in range(args.rounds):
-            for label, options in OPTIONS.items():
-                out = str(Path(tmp) / f"out-{r}-{len(label)}")
+            for k, (label, options) in enumerate(OPTIONS.items()):
+                out = str(Path(tmp) / f"out-{r}-{k}")  # a folder of its own: the command never writes into an earlier one
                 cmd = [sys.executable, "-m", "experiments.bench_each_options", "--one", json.dumps(options), tmp, out]
                 got = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=Path(__file__).parents[1])
                 if got.returncode or not got.stdout.strip():

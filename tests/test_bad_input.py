@@ -243,6 +243,19 @@ def test_result_json_is_strict_and_reads_back_inf(saved, tmp_path):
     assert strict_json({"a": [np.float64(np.nan), np.inf, 1.5, np.int64(3)]}, indent=None) == '{"a": [null, null, 1.5, 3]}'
 
 
+def test_stats_of_a_run_with_no_finite_of_are_inf_and_nan_without_a_warning(saved):
+    """Table 5's B, W, M, SD where one run found no finite OF: W and M +inf, SD not defined (NaN),
+    and no NumPy warning (a result file with such a run writes its stats)."""
+    import dataclasses
+    import warnings
+
+    res = dataclasses.replace(dcjax.load_result(saved), run_of=np.array([2e-10, np.inf]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        st = res.stats
+    assert st["best"] == 2e-10 and st["worst"] == st["mean"] == np.inf and np.isnan(st["std"])
+
+
 @pytest.mark.parametrize(
     "sidecar, match",
     [

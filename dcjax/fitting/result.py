@@ -232,9 +232,11 @@ class FitResult:
 
     @property
     def stats(self) -> dict[str, float]:
-        """B, W, M, SD of the per-run best OF (Table 5; SD is the population std, ddof = 0)."""
+        """B, W, M, SD of the per-run best OF (Table 5; SD is the population std, ddof = 0). A run
+        with no finite OF (+inf) makes W and M +inf and SD NaN (not defined), without a warning."""
         f = self.run_of
-        return {"best": float(f.min()), "worst": float(f.max()), "mean": float(f.mean()), "std": float(f.std())}
+        with np.errstate(invalid="ignore"):  # inf - inf in the std of a run with no finite OF
+            return {"best": float(f.min()), "worst": float(f.max()), "mean": float(f.mean()), "std": float(f.std())}
 
     @property
     def duplicates(self) -> dict[str, float] | None:

@@ -53,6 +53,7 @@ def test_a_rule_that_never_fires_changes_no_bit(sd1, method):
     assert ruled.run_status == plain.run_status == (dcjax.RunStatus.BUDGET,) * 2
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # NumPy arrays of inf: no "invalid value encountered in subtract"
 def test_the_population_must_agree_for_the_des_but_not_for_ga():
     """Stagnation alone ends GA and ABC; the DEs, TLBO and CMA-ES also need half their
     population's OFs within the tolerance of the best (a stalled best over a spread population

@@ -151,6 +151,7 @@ def has_converged(
     `patience` iterations and, with `spread`, more than half the population within that of the
     best (a member stuck far off, as a TLBO learner that no longer improves, does not keep the
     run going). NaN or inf OFs: never."""
+    history, fit = jnp.asarray(history), jnp.asarray(fit)  # NumPy arrays too, without NumPy's warning for inf - inf
     best = history[jnp.maximum(it - 1, 0)]
     past = history[jnp.maximum(it - 1 - stop.patience, 0)]
     tol = stop.rtol * jnp.abs(best) + stop.atol

@@ -1,5 +1,6 @@
 """The notebooks run top to bottom in a Jupyter kernel (nbclient), on a small budget."""
 
+import json
 from pathlib import Path
 
 import nbformat
@@ -18,6 +19,16 @@ def test_there_are_notebooks():
         "results_browser.ipynb",
         "real_benchmark_emps.ipynb",
     }
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_notebook_is_valid_with_an_id_on_every_cell(path):
+    """nbformat 4.5's schema: a cell without an id is a warning today, an error in a later
+    nbformat (`nbformat.read` would refuse the notebook)."""
+    cells = json.loads(path.read_text(encoding="utf-8"))["cells"]  # as written (`nbformat.read` adds missing ids)
+    ids = [c.get("id") for c in cells]
+    assert all(ids) and len(set(ids)) == len(ids), ids
+    nbformat.validate(nbformat.reads(path.read_text(encoding="utf-8"), as_version=4))
 
 
 @pytest.mark.slow

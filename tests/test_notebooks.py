@@ -25,10 +25,10 @@ def test_there_are_notebooks():
 def test_notebook_is_valid_with_an_id_on_every_cell(path):
     """nbformat 4.5's schema: a cell without an id is a warning today, an error in a later
     nbformat (`nbformat.read` would refuse the notebook)."""
-    cells = json.loads(path.read_text(encoding="utf-8"))["cells"]  # as written (`nbformat.read` adds missing ids)
-    ids = [c.get("id") for c in cells]
+    text = path.read_text(encoding="utf-8")
+    ids = [c.get("id") for c in json.loads(text)["cells"]]  # as written (`nbformat.read` adds missing ids)
     assert all(ids) and len(set(ids)) == len(ids), ids
-    nbformat.validate(nbformat.reads(path.read_text(encoding="utf-8"), as_version=4))
+    nbformat.validate(nbformat.reads(text, as_version=4))
 
 
 @pytest.mark.slow

@@ -183,6 +183,49 @@ def test_a_file_with_a_byte_order_mark_loads_as_without(tmp_path, sd1, encoding,
         load_recording(marked, columns=COLUMNS, units=UNITS)
 
 
+def _quoted(text: str) -> str:
+    return '"' + text.replace('"', '""') + '"'
+
+
+@pytest.mark.parametrize("form", ["every-field", "decimal-comma", "whitespace", "name-comma-unit"])
+def test_a_file_with_quoted_fields_loads_as_without(tmp_path, sd1, form):
+    """Fields in double quotes (RFC 4180) read as their text, a delimiter inside them included:
+    every field quoted (a spreadsheet's "quote all"); a decimal comma quoted between commas
+    (`"0,0001",220`: a German-locale spreadsheet's export, the decimal comma detected); quoted
+    fields between spaces; a logger's `"Time, s"` headers under a quoted title line (`""` a quote
+    in it), the unit after the comma read as `Time [s]`'s (the time found by its name, the
+    others' units the ones given). Each gives SD1's bits. Without the
+    quotes a comma that is both delimiter and decimal separator stays a one-line error."""
+    channels = ("t", "u_a", "i_a", "omega")
+    values = [[repr(float(sd1[c][k])) for c in channels] for k in range(len(sd1))]
+    if form == "every-field":
+        text = [",".join(map(_quoted, channels))] + [",".join(map(_quoted, row)) for row in values]
+    elif form == "decimal-comma":
+        text = [",".join(channels)] + [",".join(_quoted(v.replace(".", ",")) if "." in v else v for v in row) for row in values]
+    elif form == "whitespace":
+        text = [" ".join(map(_quoted, channels))] + ["  ".join(map(_quoted, row)) for row in values]
+    else:
+        heads = ["#", "Time, s", "Voltage, V", "Current, mA", "Speed, rpm"]
+        rows = [[str(k + 1), v[0], v[1], repr(float(sd1.i_a[k]) * 1e3), repr(float(sd1.omega[k]) / RPM)] for k, v in enumerate(values)]
+        text = [_quoted('Plot title: "bench 4"'), ",".join(map(_quoted, heads))] + [",".join(row) for row in rows]
+    f = tmp_path / "quoted.csv"
+    f.write_text("\n".join(text) + "\n")
+    kw = dict(columns={"u_a": "Voltage, V", "i_a": "Current, mA", "omega": "Speed, rpm"}, units={"i_a": "mA", "omega": "rpm"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the units given are the ones the headers state: no warning
+        rec = load_recording(f, **(kw if form == "name-comma-unit" else {}))
+    for c in channels:
+        if form == "name-comma-unit" and c in ("i_a", "omega"):
+            np.testing.assert_allclose(rec[c], sd1[c], rtol=1e-14, atol=1e-300)
+        else:
+            np.testing.assert_array_equal(rec[c], sd1[c])
+    if form == "decimal-comma":
+        bare = tmp_path / "bare.csv"
+        bare.write_text("t,u_a\n0,0001,220\n0,0002,220\n")
+        with pytest.raises(dcjax.ConfigError, match="cannot both be ','"):
+            load_recording(bare, delimiter=",", decimal=",")
+
+
 def test_npz_mat_and_dataframe(tmp_path, sd1):
     np.savez(tmp_path / "r.npz", time=sd1.t, u=sd1.u_a, i=sd1.i_a, n=sd1.omega / RPM)
     cols = {"t": "time", "u_a": "u", "i_a": "i", "omega": "n"}

@@ -5,7 +5,8 @@ The delimiter is detected from the file's last lines (read first, so that a file
 table fails before it is read whole), and so is the decimal separator where it is not given: a
 comma where the rows are numbers only with it (`0,5;220`: a European spreadsheet's export), else
 a point; a last line that splits otherwise than the two before it is taken for a row cut short
-(`data_lines`) and named as a broken row. The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
+(`data_lines`) and named as a broken row. A field in double quotes is its text, delimiters in
+it included (`split_fields`). The text is UTF-8, or UTF-8 or UTF-16 by a byte-order mark
 (as Excel and Windows tools write them; `text_encoding`). The data are the rows of the last full row's width from the
 first such numeric row on; after it, every line that is not a comment (`#`, `%`) must be a data
 row: a text cell, a missing or an extra field is a one-line error naming the line. A field that
@@ -18,6 +19,7 @@ above the data (a commented one where there is no other); a line of units may st
 them. Units, from that line or a header such as `speed_rpm`, `I [mA]`, are kept per column
 (`Table.units`) for the caller to compare with what it converts."""
 
+import csv
 import dataclasses
 import datetime
 import math
@@ -49,8 +51,18 @@ class Table:
     units_line: int | None = None
 
 
+QUOTED = re.compile(r'"((?:[^"]|"")*)"|([^"\s]+)')  # a whitespace-delimited line's fields: "quoted" or bare
+
+
 def split_fields(line: str, delim: str | None) -> list[str]:
-    return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
+    """The fields of `line` split at `delim` (None: runs of whitespace), stripped. A field in
+    double quotes is read as its text (RFC 4180: `""` is a quote), delimiters inside it included:
+    `"Date Time, GMT+01:00","0,5"`."""
+    if '"' not in line:
+        return [f.strip() for f in (line.split() if delim is None else line.split(delim))]
+    if delim is None:
+        return [(m.group(1).replace('""', '"') if m.group(2) is None else m.group(2)).strip() for m in QUOTED.finditer(line)]
+    return [f.strip() for f in next(csv.reader([line], delimiter=delim, skipinitialspace=True), [])]
 
 
 TIMESTAMP = re.compile(
@@ -208,9 +220,9 @@ def _comment(line: str) -> str | None:
 
 def detect_delimiter(lines: list[str], decimal: str) -> str | None:
     """The first of `;`, tab, `,`, whitespace that splits the last line into >= 2 numeric fields
-    (with the `decimal` separator)."""
+    (with the `decimal` separator; `,` with a decimal comma only where the line quotes fields)."""
     for d in (";", "\t", ",", None):
-        if d == "," and decimal == ",":
+        if d == "," and decimal == "," and '"' not in lines[-1]:
             continue
         last = split_fields(lines[-1], d)
         if len(last) >= 2 and row_values(last, decimal) is not None and not _all_missing(last):
@@ -228,13 +240,12 @@ def detect_delimiter(lines: list[str], decimal: str) -> str | None:
 
 
 def detect_decimal(lines: list[str], delim: str | None) -> str:
-    """The decimal separator of rows split by `delim`: a comma where `delim` is not one and a
-    field of these lines is a number only with a comma (`0,5;220;1,25`), else a point."""
-    if delim != ",":
-        for line in lines:
-            fields = split_fields(without_trailing_delimiter(line), delim)
-            if any("," in f for f in fields) and row_values(fields, ",") is not None:
-                return ","
+    """The decimal separator of rows split by `delim`: a comma where a field of these lines is a
+    number only with it (`0,5;220;1,25`, or quoted between commas: `"0,5",220`), else a point."""
+    for line in lines:
+        fields = split_fields(without_trailing_delimiter(line), delim)
+        if any("," in f for f in fields) and row_values(fields, ",") is not None:
+            return ","
     return "."
 
 
@@ -345,8 +356,8 @@ def read_table(path: Path, delimiter: str | None = None, decimal: str | None = N
         raise ConfigError(f"delimiter must be one of ',', ';', 'tab', 'whitespace', got {delimiter!r}")
     if decimal is None:
         decimal = detect_decimal(tail, delim)
-    if delim == "," and decimal == ",":
-        raise ConfigError("delimiter and decimal separator cannot both be ','")
+    if delim == "," and decimal == "," and not any('"' in x for x in tail):
+        raise ConfigError("delimiter and decimal separator cannot both be ',' (unless the fields holding a decimal comma are quoted)")
     width = len(split_fields(tail[-1], delim))
     if width < 2:
         raise DataError(f"{path}: no numeric data rows with delimiter {delim or 'whitespace'!r}; check delimiter= and decimal=")

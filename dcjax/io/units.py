@@ -115,10 +115,10 @@ def scale_factors(scale: dict | None, known: tuple[str, ...], where: str = "") -
 
 def split_unit(name: str) -> tuple[str, str | None]:
     """(the rest, the unit) of a column name that states a unit dcjax knows at its end: `speed
-    [rpm]`, `I(mA)`, `x [m]`, `speed_rpm`, `time ms` (the last word, but not `m` or `N`:
-    `SUBSCRIPT_LIKE`); else (the name, None)."""
+    [rpm]`, `I(mA)`, `x [m]`, `Time, s` (a quoted header's), `speed_rpm`, `time ms` (the last
+    word, but not `m` or `N`: `SUBSCRIPT_LIKE`); else (the name, None)."""
     h = name.strip()
-    m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", h)
+    m = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", h) or re.search(r",\s*([^,]+?)\s*$", h)
     if m and known_unit(m.group(1)):
         return h[: m.start()].strip(), m.group(1)
     words = re.split(r"[_\s]+", h)

@@ -73,3 +73,32 @@ def test_the_cli_const_option_and_errors_that_name_the_inputs(tmp_path, capsys):
         dcjax.Recording(t=np.arange(5.0), u=np.ones(5), y=np.ones(5), k=np.ones(5), constants={"k": 1.0})
     with pytest.raises(ValueError, match="may also be constants"):
         dcjax.make_problem(dcjax.Recording(t=np.arange(5.0), u=np.ones(5), y=np.ones(5)), model=Gain())
+
+
+def test_a_constant_that_names_no_input_is_an_error_not_ignored(tmp_path, capsys):
+    """A constant stands in for an input's column. One naming a parameter (`--const Ra=3`, meant
+    as `--fix Ra=3`), a state or nothing of the model was dropped without a word and the fit ran
+    as if it were not given; now it is a one-line error naming the model's inputs (and, for a
+    parameter, how to hold it) wherever constants are given: a file, a table, an embedded data set."""
+    path = _write(tmp_path, "bare", 2.5, False)
+    with pytest.raises(dcjax.ConfigError, match=r"constants= names tau: not an input of model Gain \(its inputs: u, k\).*vary=False"):
+        dcjax.load_recording(path, model=Gain(), constants={"k": 2.5, "tau": 0.05})
+    with pytest.raises(dcjax.ConfigError, match=r"constants= names y, gain: not an input"):
+        dcjax.Recording.from_dataframe(
+            {"t": np.arange(5.0), "u": np.ones(5), "y": np.ones(5)}, model=Gain(), constants={"y": 0.0, "gain": 2.0}
+        )
+    assert dcjax.load_recording(path, model=Gain(), constants={"k": 2.5}).constants == {"k": 2.5}
+    for data in (str(path), "SD1"):
+        args = ["fit", data, "--runs", "1", "--budget", "70", "--out", str(tmp_path / "o")]
+        assert (
+            cli.main([*args, "--model", f"{__file__}:Gain", "--const", "k=2.5,tau=0.05"] if data != "SD1" else [*args, "--const", "Ra=3"])
+            == 2
+        )
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1
+        assert (
+            ("--const names tau" in err and "--fix tau=V" in err)
+            if data != "SD1"
+            else ("--const names Ra: not an input of model dc (its inputs: u_a)" in err and "--fix Ra=V" in err)
+        )
+    assert not (tmp_path / "o").exists()

@@ -15,7 +15,7 @@ from ..fitting.restore import load_result
 from ..fitting.result import FitResult
 from ..io import datasets
 from ..io.loading import Reading, load_recording, preprocess
-from ..io.recording import Recording
+from ..io.recording import Recording, check_constants
 from ..io.units import ColumnError
 from ..models import Model
 from .values import mapping, named_numbers
@@ -129,6 +129,7 @@ class Loader:
     def __call__(self, data: str) -> Recording:
         if not Path(data).exists() and data.upper() in datasets.EMBEDDED:
             rec = datasets.load(data)  # --columns, --units, --scale, --dt, --rate are for files
+            check_constants(self.model, self.reading.constants)
             if self.reading.constants:
                 rec = rec.replace(constants={**rec.constants, **self.reading.constants})
             if self.window or self.every or self.trim:

@@ -39,6 +39,7 @@ SWITCHES = {"drop_nan": "--drop-nan", "allow_changed_data": "--allow-changed-dat
 CALLS = [
     (r"params\[['\"]?([\w\[\]]+?)['\"]?\]\.set\(min=([^,()]+), max=([^,()]+)\)", r"--bound \1=\2:\3"),
     (r"\brecordings=\[?\.\.\.\]?", "--data FILE"),
+    (r"params\[['\"]?([\w\[\]]+?)['\"]?\]\.set\(value=([^,()]+), vary=False\)", r"--fix \1=\2"),
     (r"\bresult\.uncertainty\(\)", "--uncertainty"),
     (r"\bintegrator=dcjax\.AutoSubsteps\(\)", "--nd auto"),
     (r"\bintegrator=dcjax\.RK4\(substeps=(\d+)\)", r"--nd \1"),

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import ConfigError, DataError
 from ..models import Model, get_model
 from .files import file_sha256
-from .recording import Recording, channels_to_read, data_file, read_sidecar, trim_switch_on
+from .recording import Recording, channels_to_read, check_constants, data_file, read_sidecar, trim_switch_on
 from .table import Table, read_table
 from .units import named_columns, select_channels, unconverted_units
 
@@ -278,6 +278,7 @@ def load_recording(
         raise ConfigError("load_recording: give the reading options either as reading=Reading(...) or as keywords, not both")
     read = reading if reading is not None else given
     m = get_model(model)
+    check_constants(m, read.constants)
     path = Path(path)
     table = _table_of(path, read)
     meta = read_sidecar(path)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataError
+from ..errors import ConfigError, DataError
 from ..extras import optional_module
 from ..html_table import html_table
 from ..models import get_model
@@ -360,6 +360,19 @@ def _index_seconds(index) -> np.ndarray | None:
     return None
 
 
+def check_constants(model, constants) -> None:
+    """A one-line error where `constants` (the ones given: `constants=`, `--const`) names what is
+    no input of `model`: a constant stands in for an input's column, never for a parameter or a
+    state (it would be ignored)."""
+    bad = [c for c in constants or {} if c not in model.inputs]
+    if bad:
+        hint = f"; a parameter is held with params[{bad[0]!r}].set(value=V, vary=False)" if bad[0] in model.names else ""
+        raise ConfigError(
+            f"constants= names {', '.join(bad)}: not an input of model {model.name} (its inputs: {', '.join(model.inputs) or 'none'}); "
+            f"a constant stands in for an input's column{hint}"
+        )
+
+
 def channels_to_read(model, constants, measured: bool = True) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(needed, optional): the model's channels a table must hold (an input given as a constant
     aside; `measured=False`: the inputs alone) and those read where present (the states, for
@@ -376,6 +389,7 @@ def recording_from_table(
     `columns`, `units`, `scale`, `dt`/`rate` as in `load_recording`; a DataFrame's index may be
     its time, its `attrs` give `units`, `name`, `limit` and `constants` where not given."""
     m = get_model(model)
+    check_constants(m, constants)
     attrs = dict(getattr(table, "attrs", None) or {})
     if hasattr(table, "columns") and hasattr(table, "__getitem__"):
         cols = {str(c): np.asarray(table[c]) for c in table.columns}

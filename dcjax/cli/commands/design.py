@@ -7,6 +7,7 @@ import numpy as np
 from ...analysis.design import DEFAULT_NOISE, design_input, evaluate_input
 from ...analysis.design_files import noise_from_fit, scales_from_fit, write_design
 from ...errors import ConfigError
+from ...io.recording import check_constants
 from ...io.units import SI_UNITS
 from ..common import add_output_options, add_result_options, saved_result
 from ..output import announce, output_folder
@@ -202,9 +203,7 @@ def _given_inputs(m, rec, t, args) -> dict:
     (held from sample to sample, the last held to the end of the design)."""
 
     consts = {**(rec.constants if rec is not None else {}), **args.const}
-    bad = [c for c in consts if c not in m.inputs]
-    if bad:
-        raise ConfigError(f"--const: {', '.join(bad)} is not an input of model {m.name} (its inputs: {', '.join(m.inputs)})")
+    check_constants(m, consts)
     given: dict = dict(consts)
     for c in args.keep:
         if c not in m.inputs:

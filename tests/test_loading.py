@@ -502,3 +502,20 @@ def test_row_values_follow_the_field_rules():
             assert (got is None) == (want is None), (row, decimal)
             if want is not None:
                 np.testing.assert_array_equal(got, want)
+
+
+def test_a_time_column_that_dt_or_rate_replace_is_named_where_they_disagree(tmp_path, sd1):
+    """`dt`/`rate` replace a file's time column (t = k dt). Where the file has a column `t` whose
+    step is not theirs (a rate typed in kHz for Hz, a column in ms), a one-line warning names
+    both steps; where they agree, nothing is said. The times are k dt either way."""
+    f = tmp_path / "timed.csv"
+    f.write_text(
+        "t,u_a,i_a,omega\n" + "\n".join(",".join(repr(float(sd1[c][k])) for c in ("t", "u_a", "i_a", "omega")) for k in range(len(sd1)))
+    )
+    with pytest.warns(UserWarning, match=r"timed\.csv: dt/rate give 0\.001 s between samples where the file's column 't' steps 0\.0001 s"):
+        rec = load_recording(f, rate=1000)
+    np.testing.assert_array_equal(rec.t, np.arange(len(sd1)) * 1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.allclose(load_recording(f, dt=1e-4).t, sd1.t, rtol=0, atol=1e-15)
+        load_recording(f, rate=10_000.0)

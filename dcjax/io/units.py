@@ -217,6 +217,7 @@ def select_channels(
             raise ConfigError(f"{where}dt/rate replace the time column: do not map or scale t as well")
         n = len(next(iter(table.values()))) if table else 0
         table = {**table, "\0t": sample_times(n, dt, rate)}
+        _time_column_unread(table, where)
         columns["t"] = "\0t"
         units.pop("t", None)
     bad = [c for c in (*columns, *units) if c not in known]
@@ -251,6 +252,23 @@ def select_channels(
         factor = unit_factor(c, units[c], "time" if c == "t" else quantities.get(c)) if c in units else 1.0
         out[c] = np.asarray(col, dtype=np.float64) * factor * factors.get(c, 1.0)
     return out
+
+
+def _time_column_unread(table: dict, where: str) -> None:
+    """A one-line warning where the table has a time column `t` that `dt`/`rate` replace and
+    whose median step differs from theirs by more than 1 %: one of the two is wrong, and the
+    column is not the one read."""
+    col = np.asarray(table.get("t", []), dtype=np.float64)
+    steps = np.diff(col[np.isfinite(col)])
+    if steps.size == 0:
+        return
+    given, stated = float(table["\0t"][1] - table["\0t"][0]) if len(table["\0t"]) > 1 else 0.0, float(np.median(steps))
+    if given > 0 and abs(stated - given) > 0.01 * given:
+        warnings.warn(
+            f"{where}dt/rate give {given:.6g} s between samples where the file's column 't' steps {stated:.6g} s (median): "
+            "the column is not read, the time is k dt",
+            stacklevel=4,
+        )
 
 
 def unconverted_units(

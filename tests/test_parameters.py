@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import dcjax
+from dcjax.cli import main
 from dcjax.models.dc import table4
 
 
@@ -137,3 +138,20 @@ def test_a_parameter_spec_is_the_parameters_in_short():
         dcjax.ParameterSpec(ranges={"Ra": (0.0, 50.0)}, fixed={"Ra": 60.0})
     with pytest.raises(ValueError, match="local: needs a joint fit"):
         dcjax.ParameterSpec(local=("Tla",)).resolve(dcjax.DC(), [sd1])
+
+
+@pytest.mark.parametrize("other,flag", [("start", "--x0 Ra=40"), ("log", "--log Ra"), ("local", "--local Ra")])
+def test_a_fixed_parameter_named_again_is_an_error_not_ignored(tmp_path, capsys, other, flag):
+    """A fixed parameter is not searched: a start value, a log scale or a value per recording for
+    it (`--fix Ra=42.5 --x0 Ra=40`) was dropped without a word. Now `ParameterSpec` refuses the
+    pair in one line, which the command line spells in its flags."""
+    given = {"start": {"Ra": 40.0}, "log": ("Ra",), "local": ("Ra",)}[other]
+    with pytest.raises(
+        dcjax.ConfigError, match=rf"^ParameterSpec: fixed= and {other}= both name Ra: a fixed parameter is not searched; drop one$"
+    ):
+        dcjax.ParameterSpec("table4", fixed={"Ra": 42.5}, **{other: given})
+    out = tmp_path / "o"
+    assert main(["fit", "SD1", "SD2", "--fix", "Ra=42.5", *flag.split(), "--runs", "1", "--budget", "70", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"dcjax: error: ParameterSpec: --fix and {flag.split()[0]} both name Ra: a fixed parameter is not searched; drop one"
+    assert not out.exists()

@@ -22,6 +22,10 @@ PAIRS = {
     "weights": "--weights",
     "process": "--process-noise",
     "measurement": "--measurement-noise",
+    "fixed": "--fix",
+    "start": "--x0",
+    "log": "--log",
+    "local": "--local",
 }
 VALUES = {
     "dt": "--dt",

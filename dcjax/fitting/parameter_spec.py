@@ -75,6 +75,12 @@ class ParameterSpec:
             raise ConfigError("ParameterSpec: lower and upper must be given together")
         if self.lower is not None and self.preset is not None:
             raise ConfigError("ParameterSpec: give either preset or lower/upper, not both")
+        for other, names in (("start", self.start), ("log", self.log), ("local", self.local)):
+            both = [n for n in names if n in self.fixed]
+            if both:  # a known value is not searched: a start, a scale or a value per recording would be ignored
+                raise ConfigError(
+                    f"ParameterSpec: fixed= and {other}= both name {', '.join(both)}: a fixed parameter is not searched; drop one"
+                )
         for n, v in self.fixed.items():
             lo, hi = self.ranges.get(n, (-float("inf"), float("inf")))
             if not lo <= v <= hi:

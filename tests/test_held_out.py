@@ -42,6 +42,9 @@ def test_validate_with_the_fitted_start_scores_as_numpy_does(tmp_path, capsys):
     res = dcjax.load_result(tmp_path / "f" / "result.json", model=model)
     assert abs(res.best_values["y0_th"] - 0.3) < 0.01
     args = ["validate", str(tmp_path / "f" / "result.json"), b, "--model", model, "--skip", "10"]
+    capsys.readouterr()
+    assert cli.main([*args[:-1], "100000", "--out", str(tmp_path / "x")]) == 2  # a skip longer than the record: one line
+    assert capsys.readouterr().err.strip().endswith(f"skip: 100000 samples of {len(t)} leave 0 (need at least 3 after the skipped ones)")
     assert cli.main([*args, "--initial", "fitted", "--out", str(tmp_path / "v")]) == 0
     row = json.loads((tmp_path / "v" / "validation.json").read_text())[0]
     p = {n: res.best_values[n] for n in TRUTH}

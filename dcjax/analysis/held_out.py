@@ -231,7 +231,9 @@ def validate(
     out = []
     for rec in recordings:
         if len(rec) - skip < 3:
-            raise ConfigError(f"{rec._where()}skip: {skip} leaves {len(rec) - skip} of {len(rec)} samples (need at least 3)")
+            raise ConfigError(
+                f"{rec._where()}skip: {skip} samples of {len(rec)} leave {max(len(rec) - skip, 0)} (need at least 3 after the skipped ones)"
+            )
         target = held_out_start(result, rec, modes, x)
         sim, of = np.asarray(_outputs(x, target)), float(_objective(x, target))
         forecast = None if predict is None else predicted(result, target, x, int(predict))

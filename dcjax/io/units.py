@@ -216,8 +216,9 @@ def select_channels(
         if "t" in columns or "t" in factors:
             raise ConfigError(f"{where}dt/rate replace the time column: do not map or scale t as well")
         n = len(next(iter(table.values()))) if table else 0
-        table = {**table, "\0t": sample_times(n, dt, rate)}
-        _time_column_unread(table, where)
+        times = sample_times(n, dt, rate)
+        _time_column_unread(table.get("t"), times, where)
+        table = {**table, "\0t": times}
         columns["t"] = "\0t"
         units.pop("t", None)
     bad = [c for c in (*columns, *units) if c not in known]
@@ -254,19 +255,18 @@ def select_channels(
     return out
 
 
-def _time_column_unread(table: dict, where: str) -> None:
-    """A one-line warning where the table has a time column `t` that `dt`/`rate` replace and
-    whose median step differs from theirs by more than 1 %: one of the two is wrong, and the
-    column is not the one read."""
-    col = np.asarray(table.get("t", []), dtype=np.float64)
-    steps = np.diff(col[np.isfinite(col)])
-    if steps.size == 0:
+def _time_column_unread(column, times: np.ndarray, where: str) -> None:
+    """A one-line warning where the table has a time column `t` (`column`) that `dt`/`rate`
+    replace (`times`) and whose median step differs from theirs by more than 1 %: one of the
+    two is wrong, and the column is not the one read."""
+    if column is None or len(times) < 2:
         return
-    given, stated = float(table["\0t"][1] - table["\0t"][0]) if len(table["\0t"]) > 1 else 0.0, float(np.median(steps))
-    if given > 0 and abs(stated - given) > 0.01 * given:
+    steps = np.diff(np.asarray(column, dtype=np.float64))
+    steps, step = steps[np.isfinite(steps)], float(times[1] - times[0])
+    if steps.size and abs(float(np.median(steps)) - step) > 0.01 * step:
         warnings.warn(
-            f"{where}dt/rate give {given:.6g} s between samples where the file's column 't' steps {stated:.6g} s (median): "
-            "the column is not read, the time is k dt",
+            f"{where}dt/rate give {step:.6g} s between samples where the file's column 't' steps {float(np.median(steps)):.6g} s "
+            "(median): the column is not read, the time is k dt",
             stacklevel=4,
         )
 

@@ -262,10 +262,13 @@ def _time_column_unread(column, times: np.ndarray, where: str) -> None:
     if column is None or len(times) < 2:
         return
     steps = np.diff(np.asarray(column, dtype=np.float64))
-    steps, step = steps[np.isfinite(steps)], float(times[1] - times[0])
-    if steps.size and abs(float(np.median(steps)) - step) > 0.01 * step:
+    steps = steps[np.isfinite(steps)]
+    if steps.size == 0:
+        return
+    step, stated = float(times[1] - times[0]), float(np.median(steps))
+    if abs(stated - step) > 0.01 * step:
         warnings.warn(
-            f"{where}dt/rate give {step:.6g} s between samples where the file's column 't' steps {float(np.median(steps)):.6g} s "
+            f"{where}dt/rate give {step:.6g} s between samples where the file's column 't' steps {stated:.6g} s "
             "(median): the column is not read, the time is k dt",
             stacklevel=4,
         )

@@ -15,7 +15,7 @@ import reference as ref
 
 import dcjax
 from dcjax import cli, datasets
-from dcjax.analysis.checks import check_recording, fleet_findings, from_error
+from dcjax.analysis.checks import check_recording, count_findings, fleet_findings, from_error
 from dcjax.fitting.summary import outlier_flags, robust_outliers
 from experiments.synthetic_fleet import EXPECTED, write_fleet
 
@@ -260,6 +260,22 @@ def test_fit_findings_flag_a_rate_slower_than_la_over_ra_and_a_channel_not_follo
     assert slow and "only the samples right after each change of the input show it" in slow[0].message
     bad = fit_findings(good, fits={"i_a": 95.0, "omega": -3.0})
     assert [f.label for f in bad] == ["no-follow:omega"] and bad[0].severity == "warning"
+
+
+def test_a_fit_with_no_more_values_than_free_parameters_says_so(sd1, tmp_path, capsys):
+    """3 samples x 2 channels for 7 parameters: `few-data`, in the result and on the command line;
+    8 values outnumber them: none. The paper's data, cut."""
+    search = dcjax.Search(runs=1, budget=140)
+    few = lambda r: [f for f in r.checks if f.check == "few-data"]
+    three = dcjax.fit(sd1.select(slice(0, 3)), params="table4", search=search)
+    assert [f.message.split(":")[0] for f in few(three)] == ["6 compared values (samples x channels) for 7 free parameters"]
+    assert few(three)[0].severity == "warning"
+    assert [len(count_findings(n, 7)) for n in (6, 7, 8)] == [1, 1, 0]  # 4 samples, or 3 with two parameters fixed: none
+    short = tmp_path / "short.csv"
+    short.write_text("".join((datasets.DATA_DIR / "SD1.csv").read_text().splitlines(True)[:4]))
+    flags = ["--bounds", "table4", "--runs", "1", "--budget", "140", "--plots", "none", "--out", str(tmp_path / "out")]
+    assert cli.main(["fit", str(short), *flags]) == 0
+    assert "check warning: few-data: 6 compared values (samples x channels) for 7 free parameters" in capsys.readouterr().out
 
 
 @pytest.mark.slow  # two fits with a polish

@@ -30,6 +30,9 @@ line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists
 |               |          | most 10 % of its intervals change) and a channel's residual in the 3 samples |
 |               |          | from each step is over 5x its rms elsewhere and 0.1 % of its peak: a         |
 |               |          | zero-order hold, or a delay?                                                 |
+| `few-data`    | warning  | the fit's compared values (samples x compared channels, every recording) are |
+|               |          | no more than its free parameters (initial states, local values included):   |
+|               |          | any such set of values can be matched, so the data do not determine them     |
 """
 
 import dataclasses
@@ -398,6 +401,22 @@ def _held(result, rec: Recording, sim: np.ndarray | None = None) -> list[Finding
                 )
                 break
     return out
+
+
+def count_findings(data_points: int, free: int) -> list[Finding]:
+    """`few-data` where a fit's `data_points` residuals (samples times compared channels, all its
+    recordings) are no more than its `free` parameters: N equations in P >= N unknowns are matched
+    by many parameter sets, so the fitted values are one of them, not what the data determine."""
+    if data_points > free:
+        return []
+    return [
+        Finding(
+            "few-data",
+            WARNING,
+            f"{data_points} compared values (samples x channels) for {free} free parameters: the data do not determine them; "
+            f"fit a longer recording, or fix parameters (--fix NAME=VALUE)",
+        )
+    ]
 
 
 def recording_findings(recordings: Sequence[Recording], model: Model) -> list[Finding]:

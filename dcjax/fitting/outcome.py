@@ -2,6 +2,7 @@
 run (`polish_runs`), the best run, what the result keeps of the setup (`recorded`), and a warning
 per fitted initial state left on its range's bound (`start_warnings`)."""
 
+import dataclasses
 import time
 import warnings
 
@@ -9,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..analysis.checks import count_findings
 from ..io.recording import Recording
 from ..simulation.joint import stacked_target
 from .observation import START_SPREAD
@@ -69,6 +71,7 @@ def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | No
         layout=setup.layout,
         **recorded(setup, search),
     )
+    result = dataclasses.replace(result, checks=result.checks + tuple(count_findings(result.ndata, result.nvarys)))
     for line in start_warnings(result):  # a fitted start on its range's bound: said, not left silent
         warnings.warn(line, stacklevel=5)  # make_result, fit_setups, fit_sets, fit / fit_each: their caller
     return result

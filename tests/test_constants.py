@@ -2,6 +2,7 @@
 recording (sidecar "constants", `--const`, `Recording(constants=)`) instead of a column."""
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -102,3 +103,17 @@ def test_a_constant_that_names_no_input_is_an_error_not_ignored(tmp_path, capsys
             else ("--const names Ra: not an input of model dc (its inputs: u_a)" in err and "--fix Ra=V" in err)
         )
     assert not (tmp_path / "o").exists()
+
+
+def test_a_sidecar_constant_that_names_no_input_is_named_not_dropped_silently(tmp_path):
+    """A sidecar's "constants" describe the rig, perhaps for another model too: one naming no
+    input of the loaded model is a one-line warning (not an error); those that do are read."""
+    path = _write(tmp_path, "rig", 2.5, False)
+    (tmp_path / "rig.json").write_text(json.dumps({"constants": {"k": 2.5, "pp": 4}}))
+    with pytest.warns(UserWarning, match=r"^rig\.json: constants pp name no input of model Gain \(its inputs: u, k\): not used$"):
+        rec = dcjax.load_recording(path, model=Gain())
+    assert rec.constants == {"k": 2.5, "pp": 4.0}  # kept as the sidecar says, the fit reads k alone
+    (tmp_path / "rig.json").write_text(json.dumps({"constants": {"k": 2.5}}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert dcjax.load_recording(path, model=Gain()).constants == {"k": 2.5}

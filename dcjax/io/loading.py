@@ -281,7 +281,7 @@ def load_recording(
     check_constants(m, read.constants)
     path = Path(path)
     table = _table_of(path, read)
-    meta = read_sidecar(path)
+    meta = _sidecar(m, path)
     consts = {**(meta.get("constants") or {}), **(read.constants or {})}
     needed, unmeasured = channels_to_read(m, consts, measured)  # unmeasured: read where present (an initial state)
     columns, units = dict(read.columns or {}), dict(read.units or {})
@@ -324,6 +324,21 @@ def load_recording(
     }
     load = read.to_dict() | {k: v for k, v in kept.items() if v not in (None, False)}
     return rec.replace(metadata={**meta, "source": _source(path, load, rec.name)})
+
+
+def _sidecar(model: Model, path: Path) -> dict:
+    """The sidecar of `path` (`read_sidecar`), with a one-line warning where its "constants" name
+    no input of `model`: they are not used (a sidecar may describe the rig for other models too,
+    so not an error, unlike a constant given to the fit: `check_constants`)."""
+    meta = read_sidecar(path)
+    unused = [c for c in meta.get("constants") or {} if c not in model.inputs]
+    if unused:
+        warnings.warn(
+            f"{path.with_suffix('.json').name}: constants {', '.join(unused)} name no input of model {model.name} "
+            f"(its inputs: {', '.join(model.inputs) or 'none'}): not used",
+            stacklevel=3,
+        )
+    return meta
 
 
 def _has_column(table: dict, source) -> bool:

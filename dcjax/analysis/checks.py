@@ -30,9 +30,9 @@ line, a `warning` fits it and flags it (the CLI prints them; `summary.csv` lists
 |               |          | most 10 % of its intervals change) and a channel's residual in the 3 samples |
 |               |          | from each step is over 5x its rms elsewhere and 0.1 % of its peak: a         |
 |               |          | zero-order hold, or a delay?                                                 |
-| `few-data`    | warning  | the fit's compared values (samples x compared channels, every recording) are |
-|               |          | no more than its free parameters (initial states, local values included):   |
-|               |          | any such set of values can be matched, so the data do not determine them     |
+| `few-data`    | warning  | after the fit: its compared values (samples x compared channels, every       |
+|               |          | recording) are no more than its free parameters (initial states and local    |
+|               |          | values included): many parameter sets match them, none is determined         |
 """
 
 import dataclasses

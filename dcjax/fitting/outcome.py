@@ -1,6 +1,6 @@
 """A setup's runs made its `FitResult`, once: the optional Levenberg–Marquardt polish of every
-run (`polish_runs`), the best run, what the result keeps of the setup (`recorded`), and a warning
-per fitted initial state left on its range's bound (`start_warnings`)."""
+run (`polish_runs`), the best run, what the result keeps of the setup (`recorded`), the `few-data`
+finding, and a warning per fitted initial state left on its range's bound (`start_warnings`)."""
 
 import dataclasses
 import time
@@ -38,8 +38,9 @@ def polish_runs(run_x, setup: Setup):
 
 def make_result(setup: Setup, search: Search, out, timing: dict, ran: Setup | None = None) -> FitResult:
     """The result of the runs `out` of one setup, after the optional polish (of the setup the runs
-    ran, `ran`: the setup itself or its padded form, `dcjax.fitting.runs.bucketed`); a warning
-    per fitted start that ended on its range's bound (`start_warnings`)."""
+    ran, `ran`: the setup itself or its padded form, `dcjax.fitting.runs.bucketed`), its data
+    checks' findings and `few-data` where its residuals do not outnumber its free parameters
+    (`count_findings`); a warning per fitted start that ended on its range's bound (`start_warnings`)."""
     run_x = np.asarray(setup.space.to_physical(out.best_x))
     run_of = np.asarray(out.best_f)
     polish_info = None

@@ -276,6 +276,10 @@ def test_a_fit_with_no_more_values_than_free_parameters_says_so(sd1, tmp_path, c
     flags = ["--bounds", "table4", "--runs", "1", "--budget", "140", "--plots", "none", "--out", str(tmp_path / "out")]
     assert cli.main(["fit", str(short), *flags]) == 0
     assert "check warning: few-data: 6 compared values (samples x channels) for 7 free parameters" in capsys.readouterr().out
+    assert cli.main(["report", str(tmp_path / "out" / "result.json")]) == 0  # the file carries it, its report names it
+    report = capsys.readouterr().out
+    assert "[[Checks]]\n" in report and "\n    warning: few-data: 6 compared values" in report
+    assert "[[Checks]]" in three.report() and "[[Checks]]" not in dataclasses.replace(three, checks=()).report()
 
 
 @pytest.mark.slow  # two fits with a polish

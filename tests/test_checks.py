@@ -270,7 +270,7 @@ def test_a_fit_with_no_more_values_than_free_parameters_says_so(sd1, tmp_path, c
     three = dcjax.fit(sd1.select(slice(0, 3)), params="table4", search=search)
     assert [f.message.split(":")[0] for f in few(three)] == ["6 compared values (samples x channels) for 7 free parameters"]
     assert few(three)[0].severity == "warning"
-    assert [len(count_findings(n, 7)) for n in (6, 7, 8)] == [1, 1, 0]  # 4 samples, or 3 with two parameters fixed: none
+    assert [len(count_findings(n, 7)) for n in (6, 7, 8)] == [1, 1, 0]  # as many values as parameters: few; 8 (4 samples): none
     short = tmp_path / "short.csv"
     short.write_text("".join((datasets.DATA_DIR / "SD1.csv").read_text().splitlines(True)[:4]))
     flags = ["--bounds", "table4", "--runs", "1", "--budget", "140", "--plots", "none", "--out", str(tmp_path / "out")]

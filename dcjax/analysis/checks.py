@@ -344,6 +344,17 @@ def fit_findings(result, recording: Recording | None = None, fits: dict[str, flo
     return out if biased else out + _held(result, rec, sim)
 
 
+def result_findings(result) -> list[Finding]:
+    """Every finding of a fit: those it carries (`result.checks`: before the fit, and `few-data`)
+    and the after-fit ones of each of its recordings (`fit_findings`), each message prefixed with
+    its recording's name in a joint fit."""
+    recs = result.recordings
+    after = [
+        g if len(recs) == 1 else dataclasses.replace(g, message=f"{r.name}: {g.message}") for r in recs for g in fit_findings(result, r)
+    ]
+    return [*result.checks, *after]
+
+
 HELD_CHANGES = 0.1  # an input that changes in at most this share of its intervals steps between held values
 HELD_RATIO = 5.0  # a residual this many times its rms elsewhere in the samples from each step: the steps are mistimed
 HELD_SAMPLES = 3  # the samples from each step (the step's own and the next two)

@@ -195,11 +195,11 @@ def relative_error(value: float, error: float) -> str:
     return " (> 1000 %)" if rel > 1000 else f" ({rel:.2g} %)"
 
 
-def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
-    """Model, settings, OF statistics, fit % per channel, the data checks' findings, every
-    parameter with its standard error (where `result.uncertainty()` was computed), fixed and
-    at-bound flags, the strongly correlated pairs and, given a `Posterior` of the result, its
-    90 % intervals beside the linearised ones."""
+def fit_report(result, correl_threshold: float = 0.9, posterior=None, findings=None) -> str:
+    """Model, settings, OF statistics, fit % per channel, the data checks' `findings` (default:
+    those the result carries), every parameter with its standard error (where
+    `result.uncertainty()` was computed), fixed and at-bound flags, the strongly correlated pairs
+    and, given a `Posterior` of the result, its 90 % intervals beside the linearised ones."""
     s = result.settings
     m = result.model
     st = result.stats
@@ -234,8 +234,9 @@ def fit_report(result, correl_threshold: float = 0.9, posterior=None) -> str:
         lines.append(
             f"    fit % ({rec.name})" + " " * max(1, 11 - len(rec.name)) + "= " + ", ".join(f"{c} {v:.3f}" for c, v in fits.items())
         )
-    if result.checks:  # the data checks' findings the fit carries (`dcjax fit` prints the after-fit ones beside them)
-        lines += ["[[Checks]]", *(f"    {f}" for f in result.checks)]
+    findings = result.checks if findings is None else findings
+    if findings:
+        lines += ["[[Checks]]", *(f"    {f}" for f in findings)]
     u = result.uncertainties
     lines.append("[[Variables]]")
     at_bound = set(result.at_bound())

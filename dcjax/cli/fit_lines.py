@@ -1,13 +1,12 @@
 """What `dcjax fit` prints of a result: the parameter table, the objective's statistics, the
 analyses, hints for a parameter at its bound and the data checks."""
 
-import dataclasses
 import shlex
 from pathlib import Path
 
 import numpy as np
 
-from ..analysis.checks import fit_findings
+from ..analysis.checks import result_findings
 from ..analysis.report import (
     digits_note,
     loose_text,
@@ -149,8 +148,7 @@ def print_fit(result: FitResult, recs: list[Recording], out: Path, plotted: bool
             print(line)
     for line in bound_hints(result):
         print(line)
-    named = lambda r, g: g if len(recs) == 1 else dataclasses.replace(g, message=f"{r.name}: {g.message}")  # a joint fit: whose
-    for f in [*result.checks, *(named(r, g) for r in recs for g in fit_findings(result, r))]:
+    for f in result_findings(result):
         print(as_flags(f"check {f}"))
     print(
         f"compile {result.timing['compile_s']:.2f} s, run {result.timing['run_s']:.2f} s; wrote {out / 'result.json'}"

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..analysis.checks import result_findings
 from ..analysis.plotting import plot_result
 from ..analysis.report import fit_html, fit_report
 from ..compiling import on_device
@@ -488,10 +489,11 @@ class FitResult:
         return plot_result(self, path=path, **kw)
 
     def report(self, posterior=None) -> str:
-        """lmfit's `fit_report`; with `posterior` (a `Posterior` of this result, e.g.
-        `Posterior.load("out/posterior.npz")`) its intervals beside the linearised ones."""
+        """lmfit's `fit_report`, the data checks' findings with the after-fit ones of the
+        recordings it holds (`result_findings`); with `posterior` (a `Posterior` of this result,
+        e.g. `Posterior.load("out/posterior.npz")`) its intervals beside the linearised ones."""
 
-        return fit_report(self, posterior=posterior)
+        return fit_report(self, posterior=posterior, findings=result_findings(self))
 
     def __str__(self) -> str:
         return self.report()
